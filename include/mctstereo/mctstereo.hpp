@@ -1,0 +1,6 @@
+// mctstereo: dense stereo matching on the (modified) census transform. Umbrella header.
+#pragma once
+
+#include "mctstereo/image.hpp"
+#include "mctstereo/matcher.hpp"
+#include "mctstereo/params.hpp"

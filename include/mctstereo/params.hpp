@@ -1,0 +1,104 @@
+// mctstereo: parameters of the stereo pipeline, their defaults, presets and validation.
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace mctstereo {
+
+/// Which local transform encodes each pixel's neighbourhood.
+enum class CensusKind {
+  Census,          ///< CT: neighbour compared with the centre pixel.
+  ModifiedCensus,  ///< MCT: neighbour compared with the 3x3 (mean or Gaussian) mean around the centre.
+};
+
+/// The 3x3 kernel whose weighted sum is the MCT reference value.
+enum class MeanKernel {
+  Box,       ///< 1 1 1 / 1 1 1 / 1 1 1, weight sum 9.
+  Gaussian,  ///< 1 2 1 / 2 4 2 / 1 2 1, weight sum 16.
+};
+
+/// How pixels left without a disparity (occluded, mismatched) are filled along their row.
+enum class FillMode {
+  None,          ///< Leave them invalid.
+  Nearest,       ///< Nearest valid pixel of the row; the closer side wins, a tie takes the smaller disparity.
+  NearestLower,  ///< Smaller of the nearest valid values on the left and on the right (background wins).
+};
+
+/// Every parameter of the pipeline. Defaults are the `balanced` preset.
+///
+/// Disparity d means: the left pixel (x, y) matches the right pixel (x - d, y).
+/// All disparities and thresholds are in pixels of the full-resolution input.
+struct StereoParams {
+  /// Smallest disparity searched, pixels. Range [-1024, 1024]. May be negative.
+  int min_disparity = 0;
+  /// Number of disparities searched: min_disparity .. min_disparity + num_disparities - 1.
+  /// Range [1, 2048], and the largest disparity must stay below 2040 (Q4 output is int16).
+  int num_disparities = 64;
+
+  /// CT or MCT.
+  CensusKind census = CensusKind::Census;
+  /// Census window side n: 3, 5, 7 or 9 (8, 24, 48 or 80 bits per pixel).
+  int census_window = 5;
+  /// Kernel of the MCT mean (ignored by CT).
+  MeanKernel mct_kernel = MeanKernel::Gaussian;
+
+  /// Side a of the square window over which Hamming distances are summed (SHD) at the finest
+  /// level: 1 (plain Hamming), 3, 5, 7 or 9.
+  int shd_window = 5;
+  /// SHD window at the coarser pyramid levels (same range as shd_window).
+  int coarse_shd_window = 3;
+
+  /// Pyramid levels L, range [1, 5]. 1 = single resolution with the full search.
+  int pyramid_levels = 3;
+  /// Extra search r, pixels of the level, around the prior from the coarser level. Range [0, 16].
+  int search_radius = 3;
+
+  /// Sub-pixel refinement by a parabola through the costs around the winner (finest level only).
+  bool subpixel = true;
+  /// Median filter side k: 0 (off), 3 or 5. Applied at every level that is refined.
+  int median_size = 3;
+  /// Left-right consistency check.
+  bool lr_check = true;
+  /// Largest allowed |dL(x) - dR(x - dL(x))|, pixels of the level. Range [0, 16].
+  int lr_threshold = 1;
+  /// Regions (4-connected, neighbours within 1 px) smaller than this many pixels are invalidated.
+  /// 0 = off. Range [0, 1000000]. Scaled by 1/4 per pyramid level.
+  int speckle_size = 100;
+  /// Uniqueness: invalid where 100 * (second best - best) <= uniqueness_ratio * best, the second best
+  /// taken outside d-1..d+1. 0 = off. Percent, range [0, 100].
+  int uniqueness_ratio = 0;
+  /// Filling of invalid pixels.
+  FillMode fill = FillMode::NearestLower;
+  /// Refine (median, LR check, speckle, fill) at every pyramid level rather than the finest only.
+  bool refine_all_levels = true;
+
+  /// Working scale s: 1, 2 or 4. The pipeline runs on the input reduced s times (binomial pyramid)
+  /// and the result is replicated s x s with disparities multiplied by s.
+  int working_scale = 1;
+
+  /// Largest disparity searched: min_disparity + num_disparities - 1.
+  int max_disparity() const { return min_disparity + num_disparities - 1; }
+
+  /// Checks every parameter and their combination. Returns an empty string when valid,
+  /// otherwise one message per problem (joined by newlines) naming the parameter and its range.
+  std::string validate() const;
+  /// The same, also checking against the image size (range wider than the image, too many levels).
+  std::string validate(int width, int height) const;
+};
+
+/// Named presets: "realtime", "balanced", "quality", "mct-full", "mr-mct-full", "mr-mct-5x5".
+/// Throws std::invalid_argument naming the known presets for an unknown name.
+/// The disparity range of the returned parameters is the default; set it afterwards.
+StereoParams preset(std::string_view name);
+/// The names accepted by preset(), in a stable order.
+const std::vector<std::string>& preset_names();
+/// One line saying what the preset is for.
+std::string_view preset_description(std::string_view name);
+
+std::string_view to_string(CensusKind kind);
+std::string_view to_string(MeanKernel kernel);
+std::string_view to_string(FillMode mode);
+
+}  // namespace mctstereo

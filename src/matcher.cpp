@@ -1,0 +1,344 @@
+// The driver: builds the pyramid and runs the stage list coarse to fine. Reads like the recipe of
+// docs/PIPELINE.md; every stage lives in src/<backend>/<stage>.cpp.
+#include "mctstereo/matcher.hpp"
+
+#include <omp.h>
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+#include <utility>
+
+#include "stages.hpp"
+
+namespace mctstereo {
+
+using detail::CensusCodes;
+using detail::kInvalid;
+using detail::Plane;
+
+namespace {
+
+// The stage list of one backend as a table, so that the recipe below is written once.
+struct StageTable {
+  decltype(&detail::reference::to_gray) to_gray;
+  decltype(&detail::reference::pyramid_down) pyramid_down;
+  decltype(&detail::reference::census_transform) census_transform;
+  decltype(&detail::reference::search_ranges) search_ranges;
+  decltype(&detail::reference::match) match;
+  decltype(&detail::reference::match_scratch_bytes) match_scratch_bytes;
+  decltype(&detail::reference::median_filter) median_filter;
+  decltype(&detail::reference::lr_check) lr_check;
+  decltype(&detail::reference::remove_speckles) remove_speckles;
+  decltype(&detail::reference::fill_invalid) fill_invalid;
+  decltype(&detail::reference::upscale) upscale;
+};
+
+#define MCTSTEREO_STAGE_TABLE(ns)                                                                \
+  StageTable {                                                                                   \
+    &ns::to_gray, &ns::pyramid_down, &ns::census_transform, &ns::search_ranges, &ns::match,      \
+        &ns::match_scratch_bytes, &ns::median_filter, &ns::lr_check, &ns::remove_speckles,       \
+        &ns::fill_invalid, &ns::upscale                                                          \
+  }
+const StageTable kReferenceStages = MCTSTEREO_STAGE_TABLE(detail::reference);
+const StageTable kCpuStages = MCTSTEREO_STAGE_TABLE(detail::cpu);
+#undef MCTSTEREO_STAGE_TABLE
+
+int log2_exact(int v) {
+  int l = 0;
+  while ((1 << l) < v) ++l;
+  return l;
+}
+
+// Everything one pyramid level holds for both views.
+struct Level {
+  int width = 0, height = 0;
+  int scale_log2 = 0;  // this level is 2^scale_log2 times smaller than the input
+  int dmin = 0, dmax = 0;
+  int shd_window = 5;
+  bool refine = true;
+  Plane<std::uint8_t> image[2];
+  CensusCodes codes[2];
+  Plane<std::int16_t> lo[2], hi[2], disparity[2], scratch[2];
+};
+
+class Stopwatch {
+ public:
+  void start() { t0_ = std::chrono::steady_clock::now(); }
+  double lap_ms() {
+    const auto t1 = std::chrono::steady_clock::now();
+    const double ms = std::chrono::duration<double, std::milli>(t1 - t0_).count();
+    t0_ = t1;
+    return ms;
+  }
+
+ private:
+  std::chrono::steady_clock::time_point t0_;
+};
+
+enum StageSlot { kGray, kPyramid, kCensus, kMatch, kRefine, kOutput, kFrame, kSlotCount };
+constexpr const char* kSlotNames[kSlotCount] = {"gray", "pyramid", "census", "match", "refine", "output", "frame"};
+
+}  // namespace
+
+struct Matcher::Impl {
+  int width, height;
+  StereoParams params;
+  Backend backend;
+  MatcherOptions options;
+  const StageTable* stages;
+  int threads = 1;
+  bool need_right = false;
+
+  std::vector<Plane<std::uint8_t>> full_gray[2];  // input size, then each working-scale reduction
+  std::vector<Level> levels;                      // levels[0] is the finest (working scale)
+  detail::MatchScratch match_scratch;
+  detail::SpeckleScratch speckle_scratch;
+  Plane<std::int16_t> upscaled[2];
+  Plane<std::int16_t> out_q4[2];
+  Plane<float> out_float;
+  std::vector<StageTime> timings;
+  double slot_ms[kSlotCount] = {};
+
+  Impl(int w, int h, const StereoParams& p, Backend b, const MatcherOptions& o)
+      : width(w), height(h), params(p), backend(b), options(o) {
+    const std::string err = p.validate(w, h);
+    if (!err.empty()) throw std::invalid_argument(err);
+    if (o.threads < 0) throw std::invalid_argument("threads = " + std::to_string(o.threads) + " must be >= 0");
+    stages = backend == Backend::Reference ? &kReferenceStages : &kCpuStages;
+    threads = backend == Backend::Reference ? 1 : (o.threads > 0 ? o.threads : omp_get_max_threads());
+    need_right = p.lr_check || o.compute_right;
+
+    // Working-scale reductions of the input: full_gray[v][0] is the input size.
+    const int scale_steps = log2_exact(p.working_scale);
+    int lw = w, lh = h;
+    for (int v = 0; v < 2; ++v) full_gray[v].resize(scale_steps + 1);
+    for (int s = 0; s <= scale_steps; ++s) {
+      for (int v = 0; v < 2; ++v) full_gray[v][s].reset(lw, lh);
+      if (s < scale_steps) lw = (lw + 1) / 2, lh = (lh + 1) / 2;
+    }
+    levels.resize(p.pyramid_levels);
+    int max_range = 1;
+    for (int l = 0; l < p.pyramid_levels; ++l) {
+      Level& L = levels[l];
+      L.width = lw;
+      L.height = lh;
+      L.scale_log2 = scale_steps + l;
+      L.dmin = detail::level_min(p.min_disparity, L.scale_log2);
+      L.dmax = detail::level_max(p.max_disparity(), L.scale_log2);
+      L.shd_window = l == 0 ? p.shd_window : p.coarse_shd_window;
+      L.refine = l == 0 || p.refine_all_levels;
+      max_range = std::max(max_range, L.dmax - L.dmin + 1);
+      const int views = need_right ? 2 : 1;
+      for (int v = 0; v < 2; ++v) {
+        // Level 0 of the pyramid is the last working-scale reduction itself.
+        if (l > 0) L.image[v].reset(lw, lh);
+        L.codes[v].words = detail::census_words(p.census_window);
+        for (int k = 0; k < L.codes[v].words; ++k) L.codes[v].plane[k].reset(lw, lh, detail::kCodePad);
+      }
+      for (int v = 0; v < views; ++v) {
+        L.lo[v].reset(lw, lh);
+        L.hi[v].reset(lw, lh);
+        L.disparity[v].reset(lw, lh);
+        L.scratch[v].reset(lw, lh);
+      }
+      lw = (lw + 1) / 2;
+      lh = (lh + 1) / 2;
+    }
+    const int max_shd = std::max(p.shd_window, p.coarse_shd_window);
+    match_scratch.threads = threads;
+    match_scratch.bytes_per_thread =
+        (stages->match_scratch_bytes(levels[0].width, max_range, max_shd) + 63) / 64 * 64;
+    match_scratch.data = detail::allocate_aligned<std::uint8_t>(match_scratch.bytes_per_thread * threads);
+    if (p.speckle_size > 0) {
+      speckle_scratch.label.reset(levels[0].width, levels[0].height);
+      speckle_scratch.stack =
+          detail::allocate_aligned<std::int32_t>(static_cast<std::size_t>(levels[0].width) * levels[0].height);
+    }
+    for (int v = 0; v < (need_right ? 2 : 1); ++v) {
+      if (scale_steps > 0) upscaled[v].reset(w, h);
+      out_q4[v].reset(w, h);
+    }
+    out_float.reset(w, h);
+    timings.reserve(kSlotCount);
+  }
+
+  const Plane<std::uint8_t>& level_image(int l, int v) const {
+    return l == 0 ? full_gray[v].back() : levels[l].image[v];
+  }
+
+  void refine(Level& L) {
+    const int views = need_right ? 2 : 1;
+    if (params.median_size > 0) {
+      for (int v = 0; v < views; ++v) {
+        stages->median_filter(L.disparity[v], params.median_size, L.scratch[v]);
+        std::swap(L.disparity[v], L.scratch[v]);
+      }
+    }
+    if (params.lr_check) {
+      // Both checks read the maps as they were before either was checked.
+      stages->lr_check(L.disparity[0], L.disparity[1], -1, 16 * params.lr_threshold, L.scratch[0]);
+      stages->lr_check(L.disparity[1], L.disparity[0], +1, 16 * params.lr_threshold, L.scratch[1]);
+      std::swap(L.disparity[0], L.scratch[0]);
+      std::swap(L.disparity[1], L.scratch[1]);
+    }
+    const int speckle = params.speckle_size >> (2 * L.scale_log2);
+    if (speckle > 1)
+      for (int v = 0; v < views; ++v) stages->remove_speckles(L.disparity[v], speckle, 16, speckle_scratch);
+    for (int v = 0; v < views; ++v) stages->fill_invalid(L.disparity[v], params.fill);
+  }
+
+  void compute(const ImageView& left, const ImageView& right) {
+    const ImageView* input[2] = {&left, &right};
+    for (int v = 0; v < 2; ++v) {
+      const ImageView& in = *input[v];
+      const char* name = v == 0 ? "left" : "right";
+      if (in.data == nullptr) throw std::invalid_argument(std::string(name) + " image has no pixels (null data)");
+      if (in.width != width || in.height != height)
+        throw std::invalid_argument(std::string(name) + " image is " + std::to_string(in.width) + " x " +
+                                    std::to_string(in.height) + ", the matcher was configured for " +
+                                    std::to_string(width) + " x " + std::to_string(height));
+      if (in.stride < static_cast<std::ptrdiff_t>(in.width) * bytes_per_pixel(in.format))
+        throw std::invalid_argument(std::string(name) + " image stride " + std::to_string(in.stride) +
+                                    " is shorter than a row");
+    }
+    if (backend == Backend::Cpu) omp_set_num_threads(threads);
+    for (double& t : slot_ms) t = 0;
+    Stopwatch frame, clock;
+    frame.start();
+    clock.start();
+
+    const int views = need_right ? 2 : 1;
+    for (int v = 0; v < 2; ++v) stages->to_gray(*input[v], full_gray[v][0]);
+    slot_ms[kGray] += clock.lap_ms();
+    for (int v = 0; v < 2; ++v) {
+      for (std::size_t s = 1; s < full_gray[v].size(); ++s) stages->pyramid_down(full_gray[v][s - 1], full_gray[v][s]);
+      for (std::size_t l = 1; l < levels.size(); ++l) stages->pyramid_down(level_image(l - 1, v), levels[l].image[v]);
+    }
+    slot_ms[kPyramid] += clock.lap_ms();
+
+    const detail::CensusConfig census{params.census, params.census_window, params.mct_kernel};
+    for (int l = static_cast<int>(levels.size()) - 1; l >= 0; --l) {
+      Level& L = levels[l];
+      for (int v = 0; v < 2; ++v) stages->census_transform(level_image(l, v), census, L.codes[v]);
+      slot_ms[kCensus] += clock.lap_ms();
+
+      const bool coarsest = l + 1 == static_cast<int>(levels.size());
+      for (int v = 0; v < views; ++v) {
+        const Plane<std::int16_t>* prior = coarsest ? nullptr : &levels[l + 1].disparity[v];
+        stages->search_ranges(prior, L.dmin, L.dmax, params.search_radius, L.lo[v], L.hi[v]);
+        const detail::MatchConfig match{v == 0 ? -1 : +1, L.shd_window, params.subpixel && l == 0,
+                                        params.uniqueness_ratio};
+        stages->match(L.codes[v], L.codes[1 - v], L.lo[v], L.hi[v], match, match_scratch, L.disparity[v]);
+      }
+      slot_ms[kMatch] += clock.lap_ms();
+      if (L.refine) refine(L);
+      slot_ms[kRefine] += clock.lap_ms();
+    }
+
+    const int scale = params.working_scale;
+    for (int v = 0; v < views; ++v) {
+      const Plane<std::int16_t>* result = &levels[0].disparity[v];
+      if (scale > 1) {
+        stages->upscale(*result, scale, 16 * params.min_disparity, 16 * params.max_disparity(), upscaled[v]);
+        result = &upscaled[v];
+      }
+      const std::int16_t invalid = invalid_q4();
+      for (int y = 0; y < height; ++y) {
+        const std::int16_t* src = result->row(y);
+        std::int16_t* q4 = out_q4[v].row(y);
+        float* f = v == 0 ? out_float.row(y) : nullptr;
+        for (int x = 0; x < width; ++x) {
+          const bool valid = src[x] != kInvalid;
+          q4[x] = valid ? src[x] : invalid;
+          if (f) f[x] = valid ? static_cast<float>(src[x]) * (1.0f / kDisparityScale) : NAN;
+        }
+      }
+    }
+    slot_ms[kOutput] += clock.lap_ms();
+    slot_ms[kFrame] = frame.lap_ms();
+    timings.clear();
+    for (int s = 0; s < kSlotCount; ++s) timings.push_back({kSlotNames[s], slot_ms[s]});
+  }
+
+  std::int16_t invalid_q4() const { return static_cast<std::int16_t>((params.min_disparity - 1) * kDisparityScale); }
+};
+
+Matcher::Matcher(int width, int height, const StereoParams& params, Backend backend, const MatcherOptions& options)
+    : impl_(std::make_unique<Impl>(width, height, params, backend, options)) {}
+Matcher::~Matcher() = default;
+Matcher::Matcher(Matcher&&) noexcept = default;
+Matcher& Matcher::operator=(Matcher&&) noexcept = default;
+
+void Matcher::compute(const ImageView& left, const ImageView& right) { impl_->compute(left, right); }
+
+MapView<const std::int16_t> Matcher::disparity_q4() const {
+  const auto& p = impl_->out_q4[0];
+  return {p.row(0), p.width(), p.height(), p.stride()};
+}
+MapView<const float> Matcher::disparity() const {
+  const auto& p = impl_->out_float;
+  return {p.row(0), p.width(), p.height(), p.stride()};
+}
+MapView<const std::int16_t> Matcher::right_disparity_q4() const {
+  if (!impl_->need_right) return {};
+  const auto& p = impl_->out_q4[1];
+  return {p.row(0), p.width(), p.height(), p.stride()};
+}
+std::int16_t Matcher::invalid_q4() const { return impl_->invalid_q4(); }
+int Matcher::width() const { return impl_->width; }
+int Matcher::height() const { return impl_->height; }
+const StereoParams& Matcher::params() const { return impl_->params; }
+Backend Matcher::backend() const { return impl_->backend; }
+int Matcher::threads() const { return impl_->threads; }
+std::string Matcher::simd_target() const {
+  return impl_->backend == Backend::Reference ? "scalar" : detail::cpu::simd_target_name();
+}
+const std::vector<StageTime>& Matcher::timings() const { return impl_->timings; }
+
+std::string_view to_string(Backend backend) { return backend == Backend::Reference ? "reference" : "cpu"; }
+
+Backend parse_backend(std::string_view name) {
+  if (name == "reference") return Backend::Reference;
+  if (name == "cpu") return Backend::Cpu;
+  throw std::invalid_argument("unknown backend '" + std::string(name) + "' (known: reference, cpu)");
+}
+
+std::size_t estimate_memory(const StereoParams& params, int width, int height, const MatcherOptions& options) {
+  // Mirrors the allocations of Matcher::Impl without making them.
+  const std::string err = params.validate(width, height);
+  if (!err.empty()) throw std::invalid_argument(err);
+  auto plane_bytes = [](int w, int h, int pad, std::size_t elem) {
+    const std::size_t per_line = detail::kAlignment / elem;
+    const std::size_t need = static_cast<std::size_t>(w + 2 * pad) + per_line;
+    return (need + per_line - 1) / per_line * per_line * std::max(h, 1) * elem;
+  };
+  const bool need_right = params.lr_check || options.compute_right;
+  const int views = need_right ? 2 : 1;
+  const int scale_steps = log2_exact(params.working_scale);
+  const int words = detail::census_words(params.census_window);
+  std::size_t total = 0;
+  int lw = width, lh = height;
+  for (int s = 0; s <= scale_steps; ++s) {
+    total += 2 * plane_bytes(lw, lh, 0, 1);
+    if (s < scale_steps) lw = (lw + 1) / 2, lh = (lh + 1) / 2;
+  }
+  int max_range = 1, w0 = lw, h0 = lh;
+  for (int l = 0; l < params.pyramid_levels; ++l) {
+    if (l > 0) total += 2 * plane_bytes(lw, lh, 0, 1);
+    total += 2 * words * plane_bytes(lw, lh, detail::kCodePad, 4);
+    total += views * 4 * plane_bytes(lw, lh, 0, 2);
+    const int ls = scale_steps + l;
+    max_range = std::max(max_range, detail::level_max(params.max_disparity(), ls) -
+                                        detail::level_min(params.min_disparity, ls) + 1);
+    lw = (lw + 1) / 2;
+    lh = (lh + 1) / 2;
+  }
+  const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+  total += threads * detail::cpu::match_scratch_bytes(w0, max_range, std::max(params.shd_window, params.coarse_shd_window));
+  if (params.speckle_size > 0) total += plane_bytes(w0, h0, 0, 4) + static_cast<std::size_t>(w0) * h0 * 4;
+  total += views * plane_bytes(width, height, 0, 2) * (scale_steps > 0 ? 2 : 1) + plane_bytes(width, height, 0, 4);
+  return total;
+}
+
+}  // namespace mctstereo

@@ -1,0 +1,189 @@
+#include "mctstereo/params.hpp"
+
+#include <sstream>
+#include <stdexcept>
+
+namespace mctstereo {
+
+namespace {
+
+bool is_one_of(int v, std::initializer_list<int> allowed) {
+  for (int a : allowed)
+    if (v == a) return true;
+  return false;
+}
+
+struct PresetEntry {
+  const char* name;
+  const char* description;
+  StereoParams (*make)();
+};
+
+StereoParams make_realtime() {
+  StereoParams p;
+  p.census = CensusKind::Census;
+  p.census_window = 5;
+  p.shd_window = 5;
+  p.coarse_shd_window = 3;
+  p.pyramid_levels = 3;
+  p.search_radius = 2;
+  p.subpixel = true;
+  p.median_size = 3;
+  p.lr_check = true;
+  p.speckle_size = 0;
+  p.fill = FillMode::NearestLower;
+  return p;
+}
+
+StereoParams make_balanced() { return StereoParams{}; }
+
+StereoParams make_quality() {
+  StereoParams p;
+  p.census = CensusKind::Census;
+  p.census_window = 5;
+  p.shd_window = 5;
+  p.pyramid_levels = 1;
+  p.median_size = 5;
+  p.lr_check = true;
+  p.speckle_size = 100;
+  p.fill = FillMode::NearestLower;
+  return p;
+}
+
+StereoParams make_mct_full() {
+  StereoParams p;
+  p.census = CensusKind::ModifiedCensus;
+  p.census_window = 9;
+  p.mct_kernel = MeanKernel::Gaussian;
+  p.shd_window = 5;
+  p.pyramid_levels = 1;
+  p.median_size = 3;
+  p.lr_check = true;
+  p.speckle_size = 0;
+  p.fill = FillMode::NearestLower;
+  return p;
+}
+
+StereoParams make_mr_mct_full() {
+  StereoParams p = make_mct_full();
+  p.pyramid_levels = 3;
+  p.search_radius = 3;
+  return p;
+}
+
+StereoParams make_mr_mct_5x5() {
+  StereoParams p = make_mr_mct_full();
+  p.census_window = 5;
+  return p;
+}
+
+constexpr PresetEntry kPresets[] = {
+    {"realtime", "CT 5x5, 3 levels, search radius 2, median 3, LR check: the fastest preset, for robots and AR",
+     make_realtime},
+    {"balanced", "CT 5x5, 3 levels, search radius 3, median 3, LR check, speckle removal: the default",
+     make_balanced},
+    {"quality", "CT 5x5, one level with the full search, median 5, LR check, speckle removal: the best maps",
+     make_quality},
+    {"mct-full", "thesis MCT-full: MCT 9x9 (Gaussian mean), one level with the full search", make_mct_full},
+    {"mr-mct-full", "thesis MR-MCT-full: MCT 9x9 (Gaussian mean), 3 levels", make_mr_mct_full},
+    {"mr-mct-5x5", "thesis MR-MCT-5x5: MCT 5x5 (Gaussian mean), 3 levels", make_mr_mct_5x5},
+};
+
+const PresetEntry* find_preset(std::string_view name) {
+  for (const auto& e : kPresets)
+    if (name == e.name) return &e;
+  return nullptr;
+}
+
+std::string known_presets() {
+  std::string s;
+  for (const auto& e : kPresets) s += (s.empty() ? "" : ", ") + std::string(e.name);
+  return s;
+}
+
+}  // namespace
+
+StereoParams preset(std::string_view name) {
+  const PresetEntry* e = find_preset(name);
+  if (!e) throw std::invalid_argument("unknown preset '" + std::string(name) + "' (known: " + known_presets() + ")");
+  return e->make();
+}
+
+const std::vector<std::string>& preset_names() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> v;
+    for (const auto& e : kPresets) v.emplace_back(e.name);
+    return v;
+  }();
+  return names;
+}
+
+std::string_view preset_description(std::string_view name) {
+  const PresetEntry* e = find_preset(name);
+  return e ? e->description : "";
+}
+
+std::string StereoParams::validate() const {
+  std::ostringstream err;
+  auto fail = [&](const std::string& msg) { err << (err.tellp() > 0 ? "\n" : "") << msg; };
+  if (min_disparity < -1024 || min_disparity > 1024)
+    fail("min_disparity = " + std::to_string(min_disparity) + " is outside [-1024, 1024]");
+  if (num_disparities < 1 || num_disparities > 2048)
+    fail("num_disparities = " + std::to_string(num_disparities) + " must be in [1, 2048]");
+  else if (min_disparity + num_disparities - 1 > 2039)
+    fail("min_disparity + num_disparities - 1 = " + std::to_string(min_disparity + num_disparities - 1) +
+         " must be at most 2039 (the Q4 int16 output)");
+  if (!is_one_of(census_window, {3, 5, 7, 9}))
+    fail("census_window = " + std::to_string(census_window) + " must be 3, 5, 7 or 9");
+  if (!is_one_of(shd_window, {1, 3, 5, 7, 9}))
+    fail("shd_window = " + std::to_string(shd_window) + " must be 1, 3, 5, 7 or 9");
+  if (!is_one_of(coarse_shd_window, {1, 3, 5, 7, 9}))
+    fail("coarse_shd_window = " + std::to_string(coarse_shd_window) + " must be 1, 3, 5, 7 or 9");
+  if (pyramid_levels < 1 || pyramid_levels > 5)
+    fail("pyramid_levels = " + std::to_string(pyramid_levels) + " must be in [1, 5]");
+  if (search_radius < 0 || search_radius > 16)
+    fail("search_radius = " + std::to_string(search_radius) + " must be in [0, 16]");
+  if (!is_one_of(median_size, {0, 3, 5}))
+    fail("median_size = " + std::to_string(median_size) + " must be 0 (off), 3 or 5");
+  if (lr_threshold < 0 || lr_threshold > 16)
+    fail("lr_threshold = " + std::to_string(lr_threshold) + " must be in [0, 16]");
+  if (speckle_size < 0 || speckle_size > 1000000)
+    fail("speckle_size = " + std::to_string(speckle_size) + " must be in [0, 1000000]");
+  if (uniqueness_ratio < 0 || uniqueness_ratio > 100)
+    fail("uniqueness_ratio = " + std::to_string(uniqueness_ratio) + " must be in [0, 100]");
+  if (!is_one_of(working_scale, {1, 2, 4}))
+    fail("working_scale = " + std::to_string(working_scale) + " must be 1, 2 or 4");
+  return err.str();
+}
+
+std::string StereoParams::validate(int width, int height) const {
+  std::string err = validate();
+  auto fail = [&](const std::string& msg) { err += (err.empty() ? "" : "\n") + msg; };
+  if (width < 1 || height < 1) {
+    fail("image size " + std::to_string(width) + " x " + std::to_string(height) + " must be at least 1 x 1");
+    return err;
+  }
+  if (width > 32768 || height > 32768)
+    fail("image size " + std::to_string(width) + " x " + std::to_string(height) + " exceeds 32768 x 32768");
+  // A disparity d can only be valid somewhere when |d| < width.
+  if (num_disparities >= 1 && (min_disparity >= width || max_disparity() <= -width))
+    fail("disparity range [" + std::to_string(min_disparity) + ", " + std::to_string(max_disparity()) +
+         "] does not overlap the image width " + std::to_string(width) + " (|d| must be below the width)");
+  else if (num_disparities > width)
+    fail("num_disparities = " + std::to_string(num_disparities) + " is wider than the image (" +
+         std::to_string(width) + " px)");
+  return err;
+}
+
+std::string_view to_string(CensusKind kind) { return kind == CensusKind::Census ? "ct" : "mct"; }
+std::string_view to_string(MeanKernel kernel) { return kernel == MeanKernel::Box ? "mean" : "gaussian"; }
+std::string_view to_string(FillMode mode) {
+  switch (mode) {
+    case FillMode::None: return "none";
+    case FillMode::Nearest: return "nearest";
+    case FillMode::NearestLower: return "nearest-lower";
+  }
+  return "?";
+}
+
+}  // namespace mctstereo

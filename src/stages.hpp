@@ -1,0 +1,135 @@
+// The stage list: every stage of the pipeline, declared once per backend with the same signature.
+//
+// `reference::` is the specification in code: one plain scalar loop per stage, written to be
+// obviously right. `cpu::` computes exactly the same integers with Highway SIMD (dispatched at run
+// time) and OpenMP threads over row bands. Tests compare the two bit for bit.
+//
+// Conventions shared by all stages (see docs/PIPELINE.md):
+// - Disparity maps are int16 in Q4 (16 x pixels of their level); kInvalid marks a pixel without one.
+// - "dir" selects the reference view: -1 = left view (its pixel x matches x - d in the other view),
+//   +1 = right view (x matches x + d).
+// - Out-of-image reads repeat the edge pixel (clamped coordinates).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <limits>
+
+#include "mctstereo/image.hpp"
+#include "mctstereo/params.hpp"
+#include "plane.hpp"
+
+namespace mctstereo::detail {
+
+inline constexpr std::int16_t kInvalid = std::numeric_limits<std::int16_t>::min();
+
+/// Columns of replicated census codes on each side of a row: covers the SHD window (radius <= 4)
+/// so that the matching loops never clamp.
+inline constexpr int kCodePad = 8;
+
+/// Census codes of one image, planar: word k of pixel (x, y) is plane[k].at(x, y); bits of the
+/// string beyond the first word continue in the next plane (most significant bits first).
+struct CensusCodes {
+  int words = 0;
+  std::array<Plane<std::uint32_t>, 3> plane;
+};
+
+struct CensusConfig {
+  CensusKind kind = CensusKind::Census;
+  int window = 5;
+  MeanKernel kernel = MeanKernel::Gaussian;
+};
+
+/// 32-bit words a census string of an n x n window needs: 3 -> 1, 5 -> 1, 7 -> 2, 9 -> 3.
+constexpr int census_words(int window) { return (window * window - 1 + 31) / 32; }
+
+struct MatchConfig {
+  int dir = -1;                 ///< -1: left reference, +1: right reference
+  int shd_window = 5;           ///< a, odd, 1..9
+  bool subpixel = false;        ///< parabola fit into Q4
+  int uniqueness_ratio = 0;     ///< percent, 0 = off
+};
+
+/// Scratch memory of the matching stage, allocated by the driver once per matcher.
+struct MatchScratch {
+  std::unique_ptr<std::uint8_t[], FreeDeleter> data;
+  std::size_t bytes_per_thread = 0;
+  int threads = 1;
+};
+
+/// Scratch memory of speckle removal (labels and a stack of W x H entries).
+struct SpeckleScratch {
+  Plane<std::int32_t> label;
+  std::unique_ptr<std::int32_t[], FreeDeleter> stack;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Helpers shared by every backend (the arithmetic that must be identical everywhere).
+
+/// Sub-pixel offset of the parabola through (d-1, c0), (d, c1), (d+1, c2) in 1/16 px, rounded to
+/// nearest (halves away from zero). Requires c0 > c1 <= c2 (ties go to the smaller disparity, so
+/// c0 > c1 always holds for a winner), hence the denominator is positive.
+inline int subpixel_offset_q4(int c0, int c1, int c2) {
+  const int num = 16 * (c0 - c2);
+  const int den = 2 * (c0 - 2 * c1 + c2);
+  // num / den rounded half away from zero; |num / den| <= 8 since |c0 - c2| <= den / 2.
+  const int q = (2 * (num < 0 ? -num : num) + den) / (2 * den);
+  return num < 0 ? -q : q;
+}
+
+/// Level range [floor(dmin / 2^l), ceil(dmax / 2^l)].
+inline int level_min(int dmin, int l) { return dmin >> l; }  // arithmetic shift = floor
+inline int level_max(int dmax, int l) { return -((-dmax) >> l); }
+
+// ---------------------------------------------------------------------------------------------
+// The stages. Both namespaces declare exactly the same functions.
+
+#define MCTSTEREO_DECLARE_STAGES                                                                  \
+  /* RGB/BGR -> luma: Y = (77 R + 150 G + 29 B + 128) >> 8 (BT.601, weights sum to 256). */      \
+  void to_gray(const ImageView& src, Plane<std::uint8_t>& dst);                                  \
+  /* 5-tap binomial blur (1 4 6 4 1 / 16 in each direction, clamped borders), keeping the even */ \
+  /* pixels: dst(x, y) = (sum_ij w_i w_j src(2x + i, 2y + j) + 128) >> 8. dst is ceil(W/2) wide.*/ \
+  void pyramid_down(const Plane<std::uint8_t>& src, Plane<std::uint8_t>& dst);                    \
+  /* CT or MCT codes of every pixel; fills the kCodePad replicated columns. */                    \
+  void census_transform(const Plane<std::uint8_t>& image, const CensusConfig& config,             \
+                        CensusCodes& codes);                                                      \
+  /* Per-pixel search range [lo, hi] of a level. Without a prior (coarse == nullptr): the whole */ \
+  /* level range. With one: [2 min - r, 2 max + r] of the valid coarse values in the 3x3 around */ \
+  /* (x/2, y/2), clipped to [dmin, dmax]; an invalid centre prior searches the whole range.     */ \
+  void search_ranges(const Plane<std::int16_t>* coarse, int dmin, int dmax, int radius,           \
+                     Plane<std::int16_t>& lo, Plane<std::int16_t>& hi);                            \
+  /* SHD cost over each pixel's range and winner-takes-all (ties to the smaller d); output Q4. */  \
+  void match(const CensusCodes& ref, const CensusCodes& other, const Plane<std::int16_t>& lo,     \
+             const Plane<std::int16_t>& hi, const MatchConfig& config, MatchScratch& scratch,     \
+             Plane<std::int16_t>& disparity);                                                      \
+  /* Scratch bytes one thread of match() needs for images `width` wide and ranges up to         */ \
+  /* max_range candidates.                                                                       */ \
+  std::size_t match_scratch_bytes(int width, int max_range, int shd_window);                      \
+  /* k x k median; invalid pixels enter as the smallest value (see median_filter.cpp). */         \
+  void median_filter(const Plane<std::int16_t>& src, int k, Plane<std::int16_t>& dst);            \
+  /* dst = src, invalid where the other view disagrees by more than threshold_q4 / 16 px. */      \
+  void lr_check(const Plane<std::int16_t>& src, const Plane<std::int16_t>& other, int dir,       \
+                int threshold_q4, Plane<std::int16_t>& dst);                                       \
+  /* Invalidates 4-connected regions (neighbours within max_diff_q4) of fewer than max_size px. */ \
+  void remove_speckles(Plane<std::int16_t>& disparity, int max_size, int max_diff_q4,             \
+                       SpeckleScratch& scratch);                                                   \
+  /* Fills invalid pixels along their row. */                                                     \
+  void fill_invalid(Plane<std::int16_t>& disparity, FillMode mode);                               \
+  /* Replicates each pixel factor x factor and multiplies by factor, clamped to [lo_q4, hi_q4]; */ \
+  /* dst may be smaller than factor x src (the excess is cut).                                  */ \
+  void upscale(const Plane<std::int16_t>& src, int factor, int lo_q4, int hi_q4,                  \
+               Plane<std::int16_t>& dst);
+
+namespace reference {
+MCTSTEREO_DECLARE_STAGES
+}  // namespace reference
+
+namespace cpu {
+MCTSTEREO_DECLARE_STAGES
+/// Name of the SIMD target that dynamic dispatch picks on this machine.
+const char* simd_target_name();
+}  // namespace cpu
+
+#undef MCTSTEREO_DECLARE_STAGES
+
+}  // namespace mctstereo::detail
