@@ -186,6 +186,12 @@ struct Matcher::Impl {
     if (speckle > 1)
       for (int v = 0; v < views; ++v) stages->remove_speckles(L.disparity[v], speckle, 16, speckle_scratch);
     for (int v = 0; v < views; ++v) stages->fill_invalid(L.disparity[v], params.fill);
+    if (params.post_median_size > 0) {
+      for (int v = 0; v < views; ++v) {
+        stages->median_filter(L.disparity[v], params.post_median_size, L.scratch[v]);
+        std::swap(L.disparity[v], L.scratch[v]);
+      }
+    }
   }
 
   void compute(const ImageView& left, const ImageView& right) {

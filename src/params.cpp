@@ -31,6 +31,7 @@ StereoParams make_realtime() {
   p.median_size = 3;
   p.lr_check = true;
   p.speckle_size = 0;
+  p.post_median_size = 0;
   p.fill = FillMode::NearestLower;
   return p;
 }
@@ -43,13 +44,15 @@ StereoParams make_quality() {
   p.census_window = 5;
   p.shd_window = 5;
   p.pyramid_levels = 1;
-  p.median_size = 5;
+  p.median_size = 3;
+  p.post_median_size = 5;
   p.lr_check = true;
   p.speckle_size = 100;
   p.fill = FillMode::NearestLower;
   return p;
 }
 
+// The thesis's variants keep its refinement (median, LR check, fill; no speckle removal).
 StereoParams make_mct_full() {
   StereoParams p;
   p.census = CensusKind::ModifiedCensus;
@@ -57,9 +60,10 @@ StereoParams make_mct_full() {
   p.mct_kernel = MeanKernel::Gaussian;
   p.shd_window = 5;
   p.pyramid_levels = 1;
-  p.median_size = 3;
+  p.median_size = 5;
   p.lr_check = true;
   p.speckle_size = 0;
+  p.post_median_size = 5;
   p.fill = FillMode::NearestLower;
   return p;
 }
@@ -67,25 +71,26 @@ StereoParams make_mct_full() {
 StereoParams make_mr_mct_full() {
   StereoParams p = make_mct_full();
   p.pyramid_levels = 3;
-  p.search_radius = 3;
+  p.search_radius = 4;
   return p;
 }
 
 StereoParams make_mr_mct_5x5() {
   StereoParams p = make_mr_mct_full();
   p.census_window = 5;
+  p.search_radius = 3;
   return p;
 }
 
 constexpr PresetEntry kPresets[] = {
     {"realtime", "CT 5x5, 3 levels, search radius 2, median 3, LR check: the fastest preset, for robots and AR",
      make_realtime},
-    {"balanced", "CT 5x5, 3 levels, search radius 3, median 3, LR check, speckle removal: the default",
+    {"balanced", "CT 5x5, 3 levels, search radius 3, median 3, LR check, speckle removal, median after filling: the default",
      make_balanced},
-    {"quality", "CT 5x5, one level with the full search, median 5, LR check, speckle removal: the best maps",
+    {"quality", "CT 5x5, one level with the full search, median 3, LR check, speckle removal, median 5 after filling: the best maps",
      make_quality},
     {"mct-full", "thesis MCT-full: MCT 9x9 (Gaussian mean), one level with the full search", make_mct_full},
-    {"mr-mct-full", "thesis MR-MCT-full: MCT 9x9 (Gaussian mean), 3 levels", make_mr_mct_full},
+    {"mr-mct-full", "thesis MR-MCT-full: MCT 9x9 (Gaussian mean), 3 levels, search radius 4", make_mr_mct_full},
     {"mr-mct-5x5", "thesis MR-MCT-5x5: MCT 5x5 (Gaussian mean), 3 levels", make_mr_mct_5x5},
 };
 
@@ -145,6 +150,8 @@ std::string StereoParams::validate() const {
     fail("search_radius = " + std::to_string(search_radius) + " must be in [0, 16]");
   if (!is_one_of(median_size, {0, 3, 5}))
     fail("median_size = " + std::to_string(median_size) + " must be 0 (off), 3 or 5");
+  if (!is_one_of(post_median_size, {0, 3, 5}))
+    fail("post_median_size = " + std::to_string(post_median_size) + " must be 0 (off), 3 or 5");
   if (lr_threshold < 0 || lr_threshold > 16)
     fail("lr_threshold = " + std::to_string(lr_threshold) + " must be in [0, 16]");
   if (speckle_size < 0 || speckle_size > 1000000)

@@ -1,1 +1,119 @@
+// Quality on Middlebury v2 scenes against ground truth: the bundled Tsukuba always, the four
+// scenes of ../shared/data/middlebury2003 when that folder exists. Each bound sits just above what
+// the code measures (docs/RESULTS.md), so that a regression fails.
+#include <opencv2/imgcodecs.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+
+#include "mctstereo/matcher.hpp"
 #include "test_util.hpp"
+
+namespace mctstereo::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Scores {
+  double nonocc = 0, all = 0, disc = 0;
+};
+
+std::map<std::string, std::string> read_scene_txt(const fs::path& file) {
+  std::map<std::string, std::string> kv;
+  std::ifstream in(file);
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    const auto eq = line.find('=');
+    if (eq != std::string::npos) kv[line.substr(0, eq)] = line.substr(eq + 1);
+  }
+  return kv;
+}
+
+// Bad pixels (|d - gt| > 1, invalid counted as bad) in the nonocc, all and disc (== 255) masks.
+Scores score_scene(const fs::path& dir, const std::string& preset_name) {
+  auto kv = read_scene_txt(dir / "scene.txt");
+  // IMREAD_GRAYSCALE expands palette PNGs to their gray values.
+  const cv::Mat left = cv::imread((dir / kv["left"]).string(), cv::IMREAD_GRAYSCALE);
+  const cv::Mat right = cv::imread((dir / kv["right"]).string(), cv::IMREAD_GRAYSCALE);
+  const cv::Mat gt = cv::imread((dir / kv["gt"]).string(), cv::IMREAD_GRAYSCALE);
+  const cv::Mat masks[3] = {cv::imread((dir / "nonocc.png").string(), cv::IMREAD_GRAYSCALE),
+                            cv::imread((dir / "all.png").string(), cv::IMREAD_GRAYSCALE),
+                            cv::imread((dir / "disc.png").string(), cv::IMREAD_GRAYSCALE)};
+  EXPECT_FALSE(left.empty() || right.empty() || gt.empty() || masks[0].empty() || masks[1].empty() ||
+               masks[2].empty())
+      << dir;
+  const double scale = std::stod(kv["gt_scale"]);
+  StereoParams p = preset(preset_name);
+  p.min_disparity = 0;
+  p.num_disparities = std::stoi(kv["max_disp"]) + 1;
+  Matcher m(left.cols, left.rows, p);
+  m.compute({left.data, left.cols, left.rows, static_cast<std::ptrdiff_t>(left.step), PixelFormat::Gray8},
+            {right.data, right.cols, right.rows, static_cast<std::ptrdiff_t>(right.step), PixelFormat::Gray8});
+  double out[3];
+  for (int k = 0; k < 3; ++k) {
+    long n = 0, bad = 0;
+    for (int y = 0; y < left.rows; ++y)
+      for (int x = 0; x < left.cols; ++x) {
+        if (masks[k].at<std::uint8_t>(y, x) != 255 || gt.at<std::uint8_t>(y, x) == 0) continue;
+        ++n;
+        const float d = m.disparity().at(x, y);
+        if (std::isnan(d) || std::fabs(d - gt.at<std::uint8_t>(y, x) / scale) > 1.0) ++bad;
+      }
+    out[k] = 100.0 * bad / std::max(n, 1L);
+  }
+  return {out[0], out[1], out[2]};
+}
+
+// Upper bounds (percent bad) per preset and scene: nonocc, all, disc.
+struct Bound {
+  const char* preset;
+  const char* scene;
+  Scores max;
+};
+#include "middlebury_bounds.inc"
+
+TEST(Middlebury, BundledTsukubaUnderBound) {
+  const fs::path dir = fs::path(MCTSTEREO_DATA_DIR) / "tsukuba";
+  ASSERT_TRUE(fs::exists(dir / "scene.txt")) << dir;
+  int checked = 0;
+  for (const Bound& b : kBounds) {
+    if (std::string(b.scene) != "tsukuba") continue;
+    const Scores s = score_scene(dir, b.preset);
+    EXPECT_LE(s.nonocc, b.max.nonocc) << b.preset;
+    EXPECT_LE(s.all, b.max.all) << b.preset;
+    EXPECT_LE(s.disc, b.max.disc) << b.preset;
+    ++checked;
+  }
+  EXPECT_GE(checked, 3);
+}
+
+TEST(Middlebury, SharedSetAverageUnderBound) {
+  const fs::path root = fs::path(MCTSTEREO_SHARED_DATA_DIR) / "middlebury2003";
+  if (!fs::exists(root)) GTEST_SKIP() << root << " not present: the four-scene bounds are not checked";
+  for (const Bound& b : kBounds) {
+    const fs::path dir = root / b.scene;
+    ASSERT_TRUE(fs::exists(dir / "scene.txt")) << dir;
+    const Scores s = score_scene(dir, b.preset);
+    EXPECT_LE(s.nonocc, b.max.nonocc) << b.preset << " " << b.scene;
+    EXPECT_LE(s.all, b.max.all) << b.preset << " " << b.scene;
+    EXPECT_LE(s.disc, b.max.disc) << b.preset << " " << b.scene;
+  }
+}
+
+TEST(Middlebury, AverageOfTwelveNumbersMeetsTheTargets) {
+  const fs::path root = fs::path(MCTSTEREO_SHARED_DATA_DIR) / "middlebury2003";
+  if (!fs::exists(root)) GTEST_SKIP() << root << " not present";
+  for (const auto& [preset_name, target] : kAverageTargets) {
+    double sum = 0;
+    for (const char* scene : {"tsukuba", "venus", "teddy", "cones"}) {
+      const Scores s = score_scene(root / scene, preset_name);
+      sum += s.nonocc + s.all + s.disc;
+    }
+    EXPECT_LE(sum / 12.0, target) << preset_name;
+  }
+}
+
+}  // namespace
+}  // namespace mctstereo::test

@@ -1,1 +1,81 @@
+// Parameters: presets, validation messages that name the parameter and its range.
+#include "mctstereo/params.hpp"
 #include "test_util.hpp"
+
+namespace mctstereo::test {
+namespace {
+
+TEST(Params, EveryPresetIsValidAndDistinct) {
+  const auto& names = preset_names();
+  ASSERT_EQ(names.size(), 6u);
+  for (const auto& n : names) {
+    EXPECT_EQ(preset(n).validate(), "") << n;
+    EXPECT_FALSE(preset_description(n).empty()) << n;
+  }
+  EXPECT_EQ(preset("mct-full").census, CensusKind::ModifiedCensus);
+  EXPECT_EQ(preset("mct-full").pyramid_levels, 1);
+  EXPECT_GT(preset("mr-mct-full").pyramid_levels, 1);
+  EXPECT_EQ(preset("mr-mct-5x5").census_window, 5);
+  EXPECT_EQ(preset("quality").pyramid_levels, 1);
+}
+
+TEST(Params, UnknownPresetNamesTheKnownOnes) {
+  try {
+    preset("fastest");
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("fastest"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("realtime"), std::string::npos);
+  }
+}
+
+struct BadCase {
+  void (*mutate)(StereoParams&);
+  const char* must_mention;
+};
+
+TEST(Params, ValidateNamesTheParameterAndRange) {
+  const BadCase cases[] = {
+      {[](StereoParams& p) { p.num_disparities = 0; }, "num_disparities = 0 must be in [1, 2048]"},
+      {[](StereoParams& p) { p.num_disparities = -5; }, "num_disparities = -5"},
+      {[](StereoParams& p) { p.min_disparity = -2000; }, "min_disparity = -2000 is outside [-1024, 1024]"},
+      {[](StereoParams& p) { p.census_window = 4; }, "census_window = 4 must be 3, 5, 7 or 9"},
+      {[](StereoParams& p) { p.census_window = 11; }, "census_window = 11"},
+      {[](StereoParams& p) { p.shd_window = 2; }, "shd_window = 2 must be 1, 3, 5, 7 or 9"},
+      {[](StereoParams& p) { p.coarse_shd_window = 0; }, "coarse_shd_window = 0"},
+      {[](StereoParams& p) { p.pyramid_levels = 0; }, "pyramid_levels = 0 must be in [1, 5]"},
+      {[](StereoParams& p) { p.search_radius = -1; }, "search_radius = -1"},
+      {[](StereoParams& p) { p.median_size = 4; }, "median_size = 4 must be 0 (off), 3 or 5"},
+      {[](StereoParams& p) { p.post_median_size = 7; }, "post_median_size = 7"},
+      {[](StereoParams& p) { p.lr_threshold = 17; }, "lr_threshold = 17 must be in [0, 16]"},
+      {[](StereoParams& p) { p.speckle_size = -1; }, "speckle_size = -1"},
+      {[](StereoParams& p) { p.uniqueness_ratio = 101; }, "uniqueness_ratio = 101"},
+      {[](StereoParams& p) { p.working_scale = 3; }, "working_scale = 3 must be 1, 2 or 4"},
+      {[](StereoParams& p) { p.num_disparities = 2048; p.min_disparity = 10; }, "must be at most 2039"},
+  };
+  for (const BadCase& c : cases) {
+    StereoParams p;
+    c.mutate(p);
+    const std::string err = p.validate();
+    EXPECT_NE(err.find(c.must_mention), std::string::npos) << "got: " << err << "\nwanted: " << c.must_mention;
+  }
+}
+
+TEST(Params, ValidateAgainstTheImage) {
+  StereoParams p;
+  p.num_disparities = 64;
+  EXPECT_EQ(p.validate(64, 10), "");
+  EXPECT_NE(p.validate(63, 10).find("wider than the image"), std::string::npos);
+  p.min_disparity = 100;
+  EXPECT_NE(p.validate(90, 10).find("does not overlap"), std::string::npos);
+  EXPECT_NE(p.validate(0, 10).find("at least 1 x 1"), std::string::npos);
+  p.min_disparity = 0;
+  p.num_disparities = 0;
+  p.census_window = 4;
+  const std::string err = p.validate(100, 100);
+  EXPECT_NE(err.find("num_disparities"), std::string::npos);
+  EXPECT_NE(err.find("census_window"), std::string::npos);  // every problem is reported
+}
+
+}  // namespace
+}  // namespace mctstereo::test

@@ -1,1 +1,256 @@
+// The whole pipeline: cpu equals reference, across thread counts and SIMD targets; output
+// conventions; no allocation per frame.
+#include <omp.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdlib>
+#include <new>
+
+#include "mctstereo/matcher.hpp"
 #include "test_util.hpp"
+
+// Counts every operator new of the test process, so a test can assert that a frame allocates nothing.
+namespace {
+std::atomic<long> g_allocations{0};
+}
+void* operator new(std::size_t n) {
+  ++g_allocations;
+  if (void* p = std::malloc(n ? n : 1)) return p;
+  throw std::bad_alloc();
+}
+void operator delete(void* p) noexcept { std::free(p); }
+void operator delete(void* p, std::size_t) noexcept { std::free(p); }
+
+namespace mctstereo::test {
+namespace {
+
+struct Pair {
+  Plane<std::uint8_t> left, right;
+  ImageView left_view() const { return {left.row(0), left.width(), left.height(), left.stride(), PixelFormat::Gray8}; }
+  ImageView right_view() const { return {right.row(0), right.width(), right.height(), right.stride(), PixelFormat::Gray8}; }
+};
+
+// A textured pair with a smooth disparity field, so that the multi-resolution path has real priors.
+Pair make_pair(int w, int h, int max_disp, std::uint32_t seed) {
+  Pair p{random_texture(w, h, seed), Plane<std::uint8_t>(w, h)};
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const int d = (max_disp * (x + 2 * y)) / (w + 2 * h + 1);
+      p.right.at(x, y) = p.left.at(std::min(x + d, w - 1), y);
+    }
+  return p;
+}
+
+std::vector<std::int16_t> run(const Pair& pair, const StereoParams& params, Backend backend, int threads,
+                              bool right = false) {
+  MatcherOptions options;
+  options.threads = threads;
+  options.compute_right = right;
+  Matcher m(pair.left.width(), pair.left.height(), params, backend, options);
+  m.compute(pair.left_view(), pair.right_view());
+  auto view = right ? m.right_disparity_q4() : m.disparity_q4();
+  std::vector<std::int16_t> out;
+  for (int y = 0; y < view.height; ++y) out.insert(out.end(), view.row(y), view.row(y) + view.width);
+  return out;
+}
+
+std::string describe_difference(const std::vector<std::int16_t>& a, const std::vector<std::int16_t>& b, int w) {
+  if (a.size() != b.size()) return "sizes differ";
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (a[i] != b[i])
+      return "(" + std::to_string(i % w) + ", " + std::to_string(i / w) + "): " + std::to_string(a[i]) + " vs " +
+             std::to_string(b[i]);
+  return {};
+}
+
+struct Case {
+  std::string name;
+  StereoParams params;
+  int w, h;
+};
+
+std::vector<Case> cases() {
+  std::vector<Case> out;
+  for (const std::string& name : preset_names()) {
+    StereoParams p = preset(name);
+    p.num_disparities = 24;
+    out.push_back({name, p, 97, 61});
+  }
+  StereoParams neg = preset("balanced");
+  neg.min_disparity = -7;
+  neg.num_disparities = 30;
+  out.push_back({"negative-min", neg, 81, 33});
+  StereoParams wide = preset("quality");
+  wide.num_disparities = 38;
+  out.push_back({"range-nearly-image-width", wide, 40, 20});
+  StereoParams scaled = preset("realtime");
+  scaled.working_scale = 2;
+  scaled.num_disparities = 32;
+  out.push_back({"working-scale-2", scaled, 75, 45});
+  StereoParams unique = preset("balanced");
+  unique.uniqueness_ratio = 10;
+  unique.fill = FillMode::Nearest;
+  unique.census = CensusKind::ModifiedCensus;
+  unique.census_window = 7;
+  unique.mct_kernel = MeanKernel::Box;
+  out.push_back({"uniqueness-mct7-nearest", unique, 64, 40});
+  StereoParams plain = preset("balanced");
+  plain.median_size = 0;
+  plain.post_median_size = 0;
+  plain.lr_check = false;
+  plain.speckle_size = 0;
+  plain.fill = FillMode::None;
+  plain.shd_window = 1;
+  plain.coarse_shd_window = 1;
+  plain.num_disparities = 20;
+  out.push_back({"no-refinement-hamming", plain, 50, 30});
+  StereoParams tiny = preset("realtime");
+  tiny.num_disparities = 4;
+  out.push_back({"tiny-17x5", tiny, 17, 5});
+  StereoParams single = tiny;
+  single.num_disparities = 1;
+  out.push_back({"one-column", single, 1, 64});
+  out.push_back({"one-row", tiny, 64, 1});
+  return out;
+}
+
+TEST(Pipeline, CpuEqualsReferenceForEveryPresetAndAwkwardCase) {
+  for (const Case& c : cases()) {
+    SCOPED_TRACE(c.name);
+    const Pair pair = make_pair(c.w, c.h, c.params.max_disparity() > 0 ? std::min(c.params.max_disparity(), c.w / 2) : 0, 11);
+    const auto ref = run(pair, c.params, Backend::Reference, 1);
+    for (int threads : {1, 2}) {
+      EXPECT_EQ(describe_difference(run(pair, c.params, Backend::Cpu, threads), ref, c.w), "") << "threads " << threads;
+    }
+    if (c.params.lr_check) {
+      EXPECT_EQ(describe_difference(run(pair, c.params, Backend::Cpu, 2, true),
+                                    run(pair, c.params, Backend::Reference, 1, true), c.w),
+                "")
+          << "right view";
+    }
+  }
+}
+
+TEST(Pipeline, LargeOddFrameEqualAcrossThreadsAndSimdTargets) {
+  StereoParams p = preset("balanced");
+  p.num_disparities = 48;
+  const Pair pair = make_pair(631, 479, 40, 5);
+  const auto ref = run(pair, p, Backend::Reference, 1);
+  for_each_simd_target([&](const std::string& target) {
+    for (int threads : {1, 2, 3}) {
+      EXPECT_EQ(describe_difference(run(pair, p, Backend::Cpu, threads), ref, 631), "")
+          << target << ", threads " << threads;
+    }
+  });
+}
+
+TEST(Pipeline, EveryPresetEqualAcrossSimdTargets) {
+  const Pair pair = make_pair(130, 70, 20, 3);
+  for (const std::string& name : preset_names()) {
+    StereoParams p = preset(name);
+    p.num_disparities = 24;
+    const auto ref = run(pair, p, Backend::Reference, 1);
+    for_each_simd_target([&](const std::string& target) {
+      EXPECT_EQ(describe_difference(run(pair, p, Backend::Cpu, 2), ref, 130), "") << name << " on " << target;
+    });
+  }
+}
+
+TEST(Pipeline, OutputConventions) {
+  StereoParams p = preset("balanced");
+  p.min_disparity = -3;
+  p.num_disparities = 20;
+  p.fill = FillMode::None;
+  p.uniqueness_ratio = 30;  // leaves invalid pixels
+  const Pair pair = make_pair(120, 40, 10, 9);
+  Matcher m(120, 40, p);
+  m.compute(pair.left_view(), pair.right_view());
+  EXPECT_EQ(m.invalid_q4(), -4 * 16);
+  const auto q4 = m.disparity_q4();
+  const auto f = m.disparity();
+  int invalid = 0;
+  for (int y = 0; y < 40; ++y)
+    for (int x = 0; x < 120; ++x) {
+      const int v = q4.at(x, y);
+      if (v == m.invalid_q4()) {
+        ++invalid;
+        EXPECT_TRUE(std::isnan(f.at(x, y)));
+      } else {
+        EXPECT_GE(v, 16 * p.min_disparity);
+        EXPECT_LE(v, 16 * p.max_disparity());
+        EXPECT_EQ(f.at(x, y), v / 16.0f);
+      }
+    }
+  EXPECT_GT(invalid, 0);
+  EXPECT_EQ(m.timings().back().stage, "frame");
+  EXPECT_GT(m.timings().back().ms, 0.0);
+}
+
+TEST(Pipeline, ColourInputEqualsItsLuma) {
+  const int w = 64, h = 32;
+  std::vector<std::uint8_t> rgb(w * h * 3), gray_l(w * h), gray_r(w * h), bgr(w * h * 3);
+  const Pair pair = make_pair(w, h, 8, 21);
+  // Colour pixels whose luma is the pair's gray value: R = G = B = value.
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const int i = y * w + x;
+      gray_l[i] = pair.left.at(x, y);
+      gray_r[i] = pair.right.at(x, y);
+      for (int c = 0; c < 3; ++c) rgb[3 * i + c] = pair.left.at(x, y);
+    }
+  StereoParams p = preset("realtime");
+  p.num_disparities = 16;
+  Matcher colour(w, h, p), gray(w, h, p);
+  colour.compute({rgb.data(), w, h, 3 * w, PixelFormat::Rgb8}, {gray_r.data(), w, h, w, PixelFormat::Gray8});
+  gray.compute({gray_l.data(), w, h, w, PixelFormat::Gray8}, {gray_r.data(), w, h, w, PixelFormat::Gray8});
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) ASSERT_EQ(colour.disparity_q4().at(x, y), gray.disparity_q4().at(x, y));
+}
+
+TEST(Pipeline, RejectsWrongInput) {
+  StereoParams p = preset("realtime");
+  p.num_disparities = 16;
+  Matcher m(64, 32, p);
+  std::vector<std::uint8_t> px(64 * 32);
+  const ImageView good{px.data(), 64, 32, 64, PixelFormat::Gray8};
+  EXPECT_THROW(m.compute({px.data(), 63, 32, 64, PixelFormat::Gray8}, good), std::invalid_argument);
+  EXPECT_THROW(m.compute(good, {nullptr, 64, 32, 64, PixelFormat::Gray8}), std::invalid_argument);
+  EXPECT_THROW(m.compute(good, {px.data(), 64, 32, 32, PixelFormat::Gray8}), std::invalid_argument);
+  StereoParams bad = p;
+  bad.num_disparities = 0;
+  EXPECT_THROW(Matcher(64, 32, bad), std::invalid_argument);
+  bad = p;
+  bad.num_disparities = 65;
+  EXPECT_THROW(Matcher(64, 32, bad), std::invalid_argument);
+}
+
+TEST(Pipeline, ComputeAllocatesNothingPerFrame) {
+  const Pair pair = make_pair(160, 120, 20, 1);
+  for (const std::string& name : preset_names()) {
+    StereoParams p = preset(name);
+    p.num_disparities = 32;
+    for (Backend b : {Backend::Reference, Backend::Cpu}) {
+      Matcher m(160, 120, p, b);
+      m.compute(pair.left_view(), pair.right_view());  // warm-up: thread pool, dispatch tables
+      const long before = g_allocations.load();
+      m.compute(pair.left_view(), pair.right_view());
+      m.compute(pair.left_view(), pair.right_view());
+      EXPECT_EQ(g_allocations.load() - before, 0) << name << " " << to_string(b);
+    }
+  }
+}
+
+TEST(Pipeline, MemoryGrowsWithTheSearchWidthNotTheRange) {
+  StereoParams p = preset("balanced");
+  p.num_disparities = 64;
+  const std::size_t m64 = estimate_memory(p, 1280, 720);
+  p.num_disparities = 256;
+  const std::size_t m256 = estimate_memory(p, 1280, 720);
+  // A full cost volume would grow by 4x; the matcher's buffers stay nearly the same.
+  EXPECT_LT(static_cast<double>(m256), 1.25 * static_cast<double>(m64));
+  EXPECT_LT(m256, std::size_t{1280} * 720 * 256 * 2 / 5);
+}
+
+}  // namespace
+}  // namespace mctstereo::test

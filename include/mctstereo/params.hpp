@@ -65,12 +65,15 @@ struct StereoParams {
   int lr_threshold = 1;
   /// Regions (4-connected, neighbours within 1 px) smaller than this many pixels are invalidated.
   /// 0 = off. Range [0, 1000000]. Scaled by 1/4 per pyramid level.
-  int speckle_size = 100;
+  int speckle_size = 50;
   /// Uniqueness: invalid where 100 * (second best - best) <= uniqueness_ratio * best, the second best
   /// taken outside d-1..d+1. 0 = off. Percent, range [0, 100].
   int uniqueness_ratio = 0;
   /// Filling of invalid pixels.
   FillMode fill = FillMode::NearestLower;
+  /// Median filter side after filling: 0 (off), 3 or 5. Smooths the horizontal streaks that
+  /// row-wise filling leaves in occluded areas.
+  int post_median_size = 5;
   /// Refine (median, LR check, speckle, fill) at every pyramid level rather than the finest only.
   bool refine_all_levels = true;
 

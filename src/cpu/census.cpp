@@ -1,8 +1,251 @@
-// PLACEHOLDER: forwards to the reference until the SIMD version lands.
+// census_transform with Highway SIMD: CT and MCT codes, 8-bit comparisons of a whole vector of
+// pixels per neighbour.
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "cpu/census.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
+#include <algorithm>
+#include <bit>
+#include <cstring>
+
 #include "stages.hpp"
 
+// The codes are assembled byte by byte in memory (see StoreWord), which presumes little-endian
+// words, as on every target Highway dispatches to.
+static_assert(std::endian::native == std::endian::little);
+
+HWY_BEFORE_NAMESPACE();
+namespace mctstereo::detail::cpu::HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+// MCT's threshold for the box kernel is ceil(S / 9) with S <= 9 * 255; as (S + 8) * 7282 >> 16
+// (7282 = ceil(2^16 / 9)) the quotient is exact over that whole range, checked here exhaustively.
+constexpr bool BoxDivisionExact() {
+  for (int s = 0; s <= 9 * 255; ++s)
+    if ((((s + 8) * 7282) >> 16) != (s + 8) / 9) return false;
+  return true;
+}
+static_assert(BoxDivisionExact());
+
+// u8 lanes per vector at most: 64 bytes, the slack every Plane row has past its end, so a block of
+// pixels never needs more than a Plane guarantees (and stack tiles stay small).
+constexpr int kMaxBlock = 64;
+constexpr int kMaxRadius = 4;
+constexpr int kTileStride = kMaxBlock + 2 * kMaxRadius;
+
+using D8 = hn::CappedTag<std::uint8_t, kMaxBlock>;
+using V8 = hn::Vec<D8>;
+
+// Both tests become one 8-bit comparison per neighbour, bit = I(P') < T(P):
+// - CT: T = I(P).
+// - MCT: I(P') * norm < S  <=>  I(P') < S / norm  <=>  I(P') < ceil(S / norm) for integer I(P'),
+//   and ceil(S / norm) <= 255 since S <= 255 * norm. So T = ceil(S / norm) exactly, no rounding.
+// rows[j] points at column 0 of window row j (j = 0 .. 2r), whose centre row is rows[r].
+template <int kRadius>
+HWY_INLINE V8 MctThreshold(D8 d8, const std::uint8_t* const* rows, std::ptrdiff_t x, bool gaussian) {
+  const std::uint8_t* r0 = rows[kRadius - 1];
+  const std::uint8_t* r1 = rows[kRadius];
+  const std::uint8_t* r2 = rows[kRadius + 1];
+#if HWY_TARGET == HWY_SCALAR
+  // One pixel per vector: the weighted sum as in the reference.
+  auto at = [&](const std::uint8_t* r, int i) { return static_cast<int>(r[x + i]); };
+  int s;
+  if (gaussian) {
+    s = at(r0, -1) + at(r0, 1) + at(r2, -1) + at(r2, 1) + 2 * (at(r0, 0) + at(r1, -1) + at(r1, 1) + at(r2, 0)) +
+        4 * at(r1, 0);
+    return hn::Set(d8, static_cast<std::uint8_t>((s + 15) >> 4));
+  }
+  s = 0;
+  for (int i = -1; i <= 1; ++i) s += at(r0, i) + at(r1, i) + at(r2, i);
+  return hn::Set(d8, static_cast<std::uint8_t>((s + 8) / 9));
+#else
+  // The sums need 16 bits: each half of the block in u16 lanes, then narrowed back to one vector.
+  const hn::Repartition<std::uint16_t, D8> d16;
+  const hn::Rebind<std::uint8_t, decltype(d16)> d8h;
+  const hn::RebindToSigned<decltype(d16)> di16;
+  const std::ptrdiff_t nh = static_cast<std::ptrdiff_t>(hn::Lanes(d16));
+  hn::Vec<decltype(d8h)> half[2];
+  for (int part = 0; part < 2; ++part) {
+    const std::ptrdiff_t p = x + part * nh;
+    auto load = [&](const std::uint8_t* r, int i) { return hn::PromoteTo(d16, hn::LoadU(d8h, r + p + i)); };
+    hn::Vec<decltype(d16)> t;
+    if (gaussian) {
+      // Column sums a + 2b + c, then left + 2 centre + right: weights 1 2 1 / 2 4 2 / 1 2 1,
+      // S <= 16 * 255; T = (S + 15) >> 4.
+      hn::Vec<decltype(d16)> col[3];
+      for (int i = -1; i <= 1; ++i)
+        col[i + 1] = hn::Add(hn::Add(load(r0, i), load(r2, i)), hn::ShiftLeft<1>(load(r1, i)));
+      const auto s = hn::Add(hn::Add(col[0], col[2]), hn::ShiftLeft<1>(col[1]));
+      t = hn::ShiftRight<4>(hn::Add(s, hn::Set(d16, 15)));
+    } else {
+      auto s = hn::Set(d16, 8);
+      for (int i = -1; i <= 1; ++i) s = hn::Add(s, hn::Add(hn::Add(load(r0, i), load(r1, i)), load(r2, i)));
+      t = hn::MulHigh(s, hn::Set(d16, 7282));  // (S + 8) / 9, see BoxDivisionExact
+    }
+    half[part] = hn::DemoteTo(d8h, hn::BitCast(di16, t));  // t <= 255: exact
+  }
+  return hn::Combine(d8, half[1], half[0]);
+#endif
+}
+
+// Eight consecutive bits of the string (eight neighbours, the first in the most significant bit)
+// of every pixel of the block, one byte per pixel.
+HWY_INLINE V8 CodeByte(D8 d8, const std::uint8_t* const* nb, std::ptrdiff_t x, V8 thr) {
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+  // Comparisons give mask registers here: a masked add of the bit's weight costs one instruction.
+  V8 acc = hn::IfThenElseZero(hn::Lt(hn::LoadU(d8, nb[0] + x), thr), hn::Set(d8, 0x80));
+#define MCTSTEREO_CENSUS_BIT(k) \
+  acc = hn::IfThenElse(hn::Lt(hn::LoadU(d8, nb[k] + x), thr), hn::Add(acc, hn::Set(d8, 0x80 >> k)), acc)
+#else
+  // Comparisons give vectors of 0 / -1: shift the byte left and subtract the mask, which needs no
+  // per-bit constants (they would not all fit in 16 registers with the rest).
+  V8 acc = hn::Zero(d8);
+#define MCTSTEREO_CENSUS_BIT(k) \
+  acc = hn::Sub(hn::Add(acc, acc), hn::VecFromMask(d8, hn::Lt(hn::LoadU(d8, nb[k] + x), thr)))
+  MCTSTEREO_CENSUS_BIT(0);
+#endif
+  MCTSTEREO_CENSUS_BIT(1);
+  MCTSTEREO_CENSUS_BIT(2);
+  MCTSTEREO_CENSUS_BIT(3);
+  MCTSTEREO_CENSUS_BIT(4);
+  MCTSTEREO_CENSUS_BIT(5);
+  MCTSTEREO_CENSUS_BIT(6);
+  MCTSTEREO_CENSUS_BIT(7);
+#undef MCTSTEREO_CENSUS_BIT
+  return acc;
+}
+
+// Writes one 32-bit word per pixel from `count` bytes of the string (1..4), the first byte most
+// significant and the word right-aligned. In little-endian memory the word's bytes are the string
+// bytes in reverse order followed by zeros, so one interleaving store writes the block in order.
+HWY_INLINE void StoreWord(D8 d8, const V8* bytes, int count, std::uint32_t* out) {
+  const V8 zero = hn::Zero(d8);
+  V8 lane[4] = {zero, zero, zero, zero};
+  for (int i = 0; i < count; ++i) lane[i] = bytes[count - 1 - i];
+  hn::StoreInterleaved4(lane[0], lane[1], lane[2], lane[3], d8, reinterpret_cast<std::uint8_t*>(out));
+}
+
+// Codes of the block of Lanes(d8) pixels starting at column x. nb[b] points at column 0 of the
+// row of neighbour b shifted by its horizontal offset, so nb[b] + x is neighbour b of pixel x.
+template <int kRadius, bool kMct>
+HWY_INLINE void CensusBlock(D8 d8, const std::uint8_t* const* rows, const std::uint8_t* const* nb,
+                            std::ptrdiff_t x, bool gaussian, std::uint32_t* const* out) {
+  constexpr int kWindow = 2 * kRadius + 1;
+  constexpr int kBytes = (kWindow * kWindow - 1) / 8;  // 1, 3, 6, 10: strings are whole bytes
+  const V8 thr = kMct ? MctThreshold<kRadius>(d8, rows, x, gaussian) : hn::LoadU(d8, rows[kRadius] + x);
+  V8 bytes[4];
+  int word = 0, in_word = 0;
+  // Unrolled, the string bytes of a word stay in registers until StoreWord.
+#pragma GCC unroll 16
+  for (int k = 0; k < kBytes; ++k) {
+    bytes[in_word++] = CodeByte(d8, nb + 8 * k, x, thr);
+    if (in_word == 4 || k == kBytes - 1) {
+      StoreWord(d8, bytes, in_word, out[word] + x);
+      ++word;
+      in_word = 0;
+    }
+  }
+}
+
+// Copies source columns [first, first + count) of a row into dst, clamping columns to [0, w).
+void ClampedCopy(const std::uint8_t* src, int w, int first, int count, std::uint8_t* dst) {
+  const int begin = std::clamp(-first, 0, count);          // dst index of column 0
+  const int end = std::clamp(w - first, begin, count);     // dst index of column w
+  std::memset(dst, src[0], static_cast<std::size_t>(begin));
+  std::memcpy(dst + begin, src + first + begin, static_cast<std::size_t>(end - begin));
+  std::memset(dst + end, src[w - 1], static_cast<std::size_t>(count - end));
+}
+
+template <int kRadius, bool kMct>
+void CensusImpl(const Plane<std::uint8_t>& image, bool gaussian, CensusCodes& codes) {
+  constexpr int kWindow = 2 * kRadius + 1;
+  constexpr int kCount = kWindow * kWindow - 1;
+  constexpr int kCentre = kCount / 2;  // row-major index of the centre, skipped
+  const D8 d8;
+  const int block = static_cast<int>(hn::Lanes(d8));
+  const int w = image.width(), h = image.height();
+  const int words = codes.words;
+
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < h; ++y) {
+    const std::uint8_t* rows[kWindow];
+    const std::uint8_t* nb[kCount];
+    for (int j = 0; j < kWindow; ++j) rows[j] = image.row(clamp_index(y - kRadius + j, h));
+    for (int b = 0; b < kCount; ++b) {
+      const int l = b < kCentre ? b : b + 1;
+      nb[b] = rows[l / kWindow] + (l % kWindow - kRadius);
+    }
+    // Blocks whose window leaves the row are computed from a tile of the window rows with the
+    // edge pixels repeated; column kRadius of the tile is the block's first pixel.
+    HWY_ALIGN std::uint8_t tile[kWindow * kTileStride];
+    const std::uint8_t* tile_rows[kWindow];
+    const std::uint8_t* tile_nb[kCount];
+    for (int j = 0; j < kWindow; ++j) tile_rows[j] = tile + j * kTileStride + kRadius;
+    for (int b = 0; b < kCount; ++b) {
+      const int l = b < kCentre ? b : b + 1;
+      tile_nb[b] = tile + (l / kWindow) * kTileStride + l % kWindow;
+    }
+    std::uint32_t* out[3];
+    for (int k = 0; k < words; ++k) out[k] = codes.plane[k].row(y);
+    // A row narrower than a block is written through a stack buffer: a whole block would run past
+    // the row's slack.
+    HWY_ALIGN std::uint32_t narrow[3][kMaxBlock];
+    std::uint32_t* narrow_out[3] = {narrow[0], narrow[1], narrow[2]};
+
+    for (int x = 0; x < w; x += block) {
+      // The last block overlaps the one before rather than running past the row; the overlapped
+      // pixels get the same codes again.
+      const int bx = w >= block ? std::min(x, w - block) : 0;
+      if (bx >= kRadius && bx + block + kRadius <= w) {
+        CensusBlock<kRadius, kMct>(d8, rows, nb, bx, gaussian, out);
+        continue;
+      }
+      for (int j = 0; j < kWindow; ++j) ClampedCopy(rows[j], w, bx - kRadius, block + 2 * kRadius, tile + j * kTileStride);
+      if (w >= block) {
+        std::uint32_t* shifted[3];
+        for (int k = 0; k < words; ++k) shifted[k] = out[k] + bx;
+        CensusBlock<kRadius, kMct>(d8, tile_rows, tile_nb, 0, gaussian, shifted);
+      } else {
+        CensusBlock<kRadius, kMct>(d8, tile_rows, tile_nb, 0, gaussian, narrow_out);
+        for (int k = 0; k < words; ++k) std::memcpy(out[k], narrow[k], sizeof(std::uint32_t) * w);
+      }
+    }
+    // Replicated columns for the matching stage's window.
+    for (int k = 0; k < words; ++k) {
+      std::uint32_t* r = out[k];
+      const int pad = codes.plane[k].pad();
+      std::fill(r - pad, r, r[0]);
+      std::fill(r + w, r + w + pad, r[w - 1]);
+    }
+  }
+}
+
+void CensusTransform(const Plane<std::uint8_t>& image, const CensusConfig& config, CensusCodes& codes) {
+  if (image.width() == 0 || image.height() == 0) return;
+  const bool mct = config.kind != CensusKind::Census;
+  const bool gaussian = config.kernel == MeanKernel::Gaussian;
+  switch (config.window * 2 + (mct ? 1 : 0)) {
+    case 3 * 2: return CensusImpl<1, false>(image, gaussian, codes);
+    case 3 * 2 + 1: return CensusImpl<1, true>(image, gaussian, codes);
+    case 5 * 2: return CensusImpl<2, false>(image, gaussian, codes);
+    case 5 * 2 + 1: return CensusImpl<2, true>(image, gaussian, codes);
+    case 7 * 2: return CensusImpl<3, false>(image, gaussian, codes);
+    case 7 * 2 + 1: return CensusImpl<3, true>(image, gaussian, codes);
+    case 9 * 2: return CensusImpl<4, false>(image, gaussian, codes);
+    case 9 * 2 + 1: return CensusImpl<4, true>(image, gaussian, codes);
+    default: return;  // validate() admits only windows 3, 5, 7, 9
+  }
+}
+
+}  // namespace mctstereo::detail::cpu::HWY_NAMESPACE
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
 namespace mctstereo::detail::cpu {
-
-void census_transform(const Plane<std::uint8_t>& image, const CensusConfig& config, CensusCodes& codes) { reference::census_transform(image, config, codes); }
-
+HWY_EXPORT(CensusTransform);
+void census_transform(const Plane<std::uint8_t>& image, const CensusConfig& config, CensusCodes& codes) {
+  HWY_DYNAMIC_DISPATCH(CensusTransform)(image, config, codes);
+}
 }  // namespace mctstereo::detail::cpu
+#endif

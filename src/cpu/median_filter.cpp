@@ -1,8 +1,182 @@
-// PLACEHOLDER: forwards to the reference until the SIMD version lands.
+// k x k median of a disparity map with min/max selection networks on int16 lanes, one vector of
+// output pixels at a time. Invalid pixels are INT16_MIN, so they enter as the smallest value
+// without any special case, exactly as in the reference.
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "cpu/median_filter.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <utility>
+
 #include "stages.hpp"
 
+#ifndef MCTSTEREO_CPU_MEDIAN_NETWORKS
+#define MCTSTEREO_CPU_MEDIAN_NETWORKS
 namespace mctstereo::detail::cpu {
 
-void median_filter(const Plane<std::int16_t>& src, int k, Plane<std::int16_t>& dst) { reference::median_filter(src, k, dst); }
+// One comparator of a selection network: afterwards wire a holds the smaller and wire b the
+// larger of the two values. When only one of the two results is used later, only that one is
+// computed (kMin keeps a, kMax keeps b).
+enum CmpKind : std::uint8_t { kSort, kMin, kMax };
+struct Cmp {
+  std::uint8_t a, b;
+  CmpKind kind;
+};
+
+// Optimal 5-sorter (9 comparators), applied to each column of the 5x5 window.
+inline constexpr Cmp kSort5[] = {{0, 1, kSort}, {2, 3, kSort}, {0, 2, kSort}, {1, 3, kSort}, {1, 2, kSort},
+                                 {0, 4, kSort}, {2, 4, kSort}, {1, 2, kSort}, {3, 4, kSort}};
+
+// Median of 25 values whose five columns are already sorted. Wire 5 i + j is rank i of column j.
+// Construction: sorting the five rank rows keeps the columns sorted, so value (i, j) then has at
+// least (i + 1)(j + 1) values <= it and (5 - i)(5 - j) values >= it. Only 13 positions can hold
+// the 13th smallest; 6 values lie surely below them, so the median is the 7th of those 13, taken
+// by an odd-even merge sorter. Comparators that never swap on column-sorted input were removed
+// and those whose results are never read were pruned; the network was checked on all 6^5
+// column-sorted 0/1 inputs, which by the 0-1 principle covers every input. Result: wire 21.
+inline constexpr Cmp kMedianOfSortedColumns25[] = {
+    {0, 1, kSort},   {2, 3, kSort},   {0, 2, kSort},   {1, 3, kSort},   {1, 2, kMax},    {0, 4, kMax},
+    {2, 4, kMax},    {3, 4, kSort},   {5, 6, kSort},   {7, 8, kSort},   {5, 7, kSort},   {6, 8, kSort},
+    {6, 7, kSort},   {5, 9, kMax},    {7, 9, kSort},   {6, 7, kMax},    {8, 9, kSort},   {10, 11, kSort},
+    {12, 13, kSort}, {10, 12, kSort}, {11, 13, kSort}, {11, 12, kSort}, {10, 14, kMax},  {12, 14, kSort},
+    {11, 12, kSort}, {13, 14, kMin},  {15, 16, kSort}, {17, 18, kSort}, {15, 17, kSort}, {16, 18, kMin},
+    {16, 17, kSort}, {15, 19, kSort}, {17, 19, kMin},  {16, 17, kSort}, {20, 21, kSort}, {22, 23, kSort},
+    {20, 22, kSort}, {21, 23, kMin},  {21, 22, kSort}, {20, 24, kSort}, {22, 24, kMin},  {21, 22, kMin},
+    {11, 3, kSort},  {7, 15, kSort},  {20, 13, kSort}, {21, 4, kSort},  {16, 12, kSort}, {11, 7, kMax},
+    {3, 15, kSort},  {20, 21, kSort}, {13, 4, kMin},   {8, 16, kSort},  {9, 12, kMin},   {3, 7, kMax},
+    {13, 21, kSort}, {9, 16, kSort},  {7, 20, kMax},   {15, 13, kSort}, {16, 17, kMin},  {15, 20, kSort},
+    {13, 21, kSort}, {20, 8, kMax},   {13, 9, kMin},   {21, 16, kMin},  {15, 13, kMax},  {21, 8, kMin},
+    {13, 21, kMax}};
+inline constexpr int kMedian25Result = 21;
 
 }  // namespace mctstereo::detail::cpu
+#endif  // MCTSTEREO_CPU_MEDIAN_NETWORKS
+
+HWY_BEFORE_NAMESPACE();
+namespace mctstereo::detail::cpu::HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+using D16 = hn::ScalableTag<std::int16_t>;
+using V16 = hn::Vec<D16>;
+
+template <const Cmp& c>
+HWY_INLINE void Apply(V16* v) {
+  if constexpr (c.kind == kSort) {
+    const V16 lo = hn::Min(v[c.a], v[c.b]);
+    v[c.b] = hn::Max(v[c.a], v[c.b]);
+    v[c.a] = lo;
+  } else if constexpr (c.kind == kMin) {
+    v[c.a] = hn::Min(v[c.a], v[c.b]);
+  } else {
+    v[c.b] = hn::Max(v[c.a], v[c.b]);
+  }
+}
+
+// Expands a network into straight-line code: every wire index is a constant, so the compiler
+// keeps all wires in registers.
+template <const auto& kNet, std::size_t... I>
+HWY_INLINE void ApplyNetwork(V16* v, std::index_sequence<I...>) {
+  (Apply<kNet[I]>(v), ...);
+}
+template <const auto& kNet>
+HWY_INLINE void ApplyNetwork(V16* v) {
+  ApplyNetwork<kNet>(v, std::make_index_sequence<std::size(kNet)>());
+}
+
+// Median of each lane's 3x3 window. win[j] points at the window's row j, column 0 of lane 0.
+// Sorting the three columns (lo <= mid <= hi) gives the classic exact shortcut:
+// median = med3(max of the lows, med3 of the mids, min of the highs).
+HWY_INLINE V16 Median3x3(const std::int16_t* const* win) {
+  const D16 d;
+  V16 lo[3], mid[3], hi[3];
+  for (int i = 0; i < 3; ++i) {
+    V16 a = hn::LoadU(d, win[0] + i), b = hn::LoadU(d, win[1] + i), c = hn::LoadU(d, win[2] + i);
+    const V16 ab = hn::Min(a, b);
+    b = hn::Max(a, b);
+    lo[i] = hn::Min(ab, c);
+    const V16 t = hn::Max(ab, c);
+    mid[i] = hn::Min(b, t);
+    hi[i] = hn::Max(b, t);
+  }
+  const auto med3 = [](V16 a, V16 b, V16 c) { return hn::Max(hn::Min(a, b), hn::Min(hn::Max(a, b), c)); };
+  const V16 max_lo = hn::Max(hn::Max(lo[0], lo[1]), lo[2]);
+  const V16 min_hi = hn::Min(hn::Min(hi[0], hi[1]), hi[2]);
+  return med3(max_lo, med3(mid[0], mid[1], mid[2]), min_hi);
+}
+
+// Median of each lane's 5x5 window: sort the five columns, then the network above.
+HWY_INLINE V16 Median5x5(const std::int16_t* const* win) {
+  const D16 d;
+  V16 v[25];
+  for (int j = 0; j < 5; ++j) {
+    V16 col[5];
+    for (int i = 0; i < 5; ++i) col[i] = hn::LoadU(d, win[i] + j);
+    ApplyNetwork<kSort5>(col);
+    for (int i = 0; i < 5; ++i) v[5 * i + j] = col[i];
+  }
+  ApplyNetwork<kMedianOfSortedColumns25>(v);
+  return v[kMedian25Result];
+}
+
+template <int K>
+void MedianRows(const Plane<std::int16_t>& src, Plane<std::int16_t>& dst) {
+  constexpr int R = K / 2;
+  const D16 d;
+  const int w = src.width(), h = src.height();
+  const int n = static_cast<int>(hn::Lanes(d));
+  constexpr std::size_t kMaxLanes = hn::MaxLanes(D16());
+
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < h; ++y) {
+    const std::int16_t* rows[K];
+    for (int j = 0; j < K; ++j) rows[j] = src.row(clamp_index(y + j - R, h));
+    std::int16_t* out = dst.row(y);
+    // Vectors that touch a border (or every vector of a narrow image) read a copy of the window
+    // with clamped columns; interior vectors read the rows in place.
+    HWY_ALIGN std::int16_t border[K][kMaxLanes + 2 * R];
+    HWY_ALIGN std::int16_t tail[kMaxLanes];
+    for (int x0 = 0; x0 < w; x0 += n) {
+      const std::int16_t* win[K];
+      if (x0 >= R && x0 + n + R <= w) {
+        for (int j = 0; j < K; ++j) win[j] = rows[j] + x0 - R;
+      } else {
+        for (int j = 0; j < K; ++j) {
+          for (int i = 0; i < n + 2 * R; ++i) border[j][i] = rows[j][clamp_index(x0 - R + i, w)];
+          win[j] = border[j];
+        }
+      }
+      const V16 m = K == 3 ? Median3x3(win) : Median5x5(win);
+      if (x0 + n <= w) {
+        hn::StoreU(m, d, out + x0);
+      } else {
+        hn::Store(m, d, tail);
+        std::memcpy(out + x0, tail, sizeof(std::int16_t) * (w - x0));
+      }
+    }
+  }
+}
+
+void MedianFilter(const Plane<std::int16_t>& src, int k, Plane<std::int16_t>& dst) {
+  if (k == 3) MedianRows<3>(src, dst);
+  else MedianRows<5>(src, dst);
+}
+
+}  // namespace mctstereo::detail::cpu::HWY_NAMESPACE
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace mctstereo::detail::cpu {
+HWY_EXPORT(MedianFilter);
+
+void median_filter(const Plane<std::int16_t>& src, int k, Plane<std::int16_t>& dst) {
+  if (k != 3 && k != 5) {
+    reference::median_filter(src, k, dst);  // other sizes are not offered by the parameters
+    return;
+  }
+  HWY_DYNAMIC_DISPATCH(MedianFilter)(src, k, dst);
+}
+}  // namespace mctstereo::detail::cpu
+#endif

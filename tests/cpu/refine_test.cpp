@@ -1,1 +1,353 @@
+// Refinement stages: known answers of the reference, and cpu == reference bit for bit.
+#include <omp.h>
+
+#include <algorithm>
+#include <initializer_list>
+#include <random>
+#include <string>
+#include <vector>
+
 #include "test_util.hpp"
+
+namespace mctstereo::test {
+namespace {
+
+using detail::kInvalid;
+using detail::SpeckleScratch;
+namespace reference = detail::reference;
+namespace cpu = detail::cpu;
+
+constexpr std::int16_t I = kInvalid;
+
+Plane<std::int16_t> make_map(int w, int h, std::initializer_list<std::int16_t> values) {
+  Plane<std::int16_t> p(w, h);
+  auto it = values.begin();
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) p.at(x, y) = *it++;
+  return p;
+}
+
+std::vector<std::int16_t> pixels(const Plane<std::int16_t>& p) {
+  std::vector<std::int16_t> v;
+  for (int y = 0; y < p.height(); ++y)
+    for (int x = 0; x < p.width(); ++x) v.push_back(p.at(x, y));
+  return v;
+}
+
+Plane<std::int16_t> copy_of(const Plane<std::int16_t>& p) {
+  Plane<std::int16_t> c(p.width(), p.height());
+  for (int y = 0; y < p.height(); ++y) std::copy(p.row(y), p.row(y) + p.width(), c.row(y));
+  return c;
+}
+
+int count_invalid(const Plane<std::int16_t>& p) {
+  int n = 0;
+  for (int y = 0; y < p.height(); ++y)
+    for (int x = 0; x < p.width(); ++x) n += p.at(x, y) == kInvalid;
+  return n;
+}
+
+SpeckleScratch make_scratch(int w, int h) {
+  SpeckleScratch s;
+  s.label.reset(w, h);
+  s.stack = detail::allocate_aligned<std::int32_t>(static_cast<std::size_t>(w) * h);
+  return s;
+}
+
+// Runs fn for every SIMD target and for 1 and 2 OpenMP threads.
+template <typename Fn>
+void for_each_target_and_threads(Fn fn) {
+  const int saved = omp_get_max_threads();
+  for_each_simd_target([&](const std::string& target) {
+    for (int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      fn(target + ", " + std::to_string(threads) + " thread(s)");
+    }
+  });
+  omp_set_num_threads(saved);
+}
+
+// The map kinds the comparisons run on: (invalid fraction, whole pixels or fractional Q4).
+struct MapKind {
+  double invalid;
+  bool whole;
+};
+constexpr MapKind kMapKinds[] = {{0.0, false}, {0.1, false}, {0.1, true}, {0.6, true}, {1.0, false}};
+
+// Disparity-like map for speckle removal: tiles of nearly constant value (neighbours within the
+// 16 of max_diff, tiles far apart), dotted with small islands of another value and with invalid
+// pixels, so that component sizes spread over 1 .. a few hundred pixels.
+Plane<std::int16_t> speckle_map(int w, int h, std::uint32_t seed, int tile, double invalid_fraction) {
+  Plane<std::int16_t> p(w, h);
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> base(-40, 40), noise(0, 8), island_size(1, 12), step(0, 3);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  const int tw = (w + tile - 1) / tile, th = (h + tile - 1) / tile;
+  std::vector<int> tile_value(static_cast<std::size_t>(tw) * th);
+  for (int& v : tile_value) v = 32 * base(rng);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) p.at(x, y) = static_cast<std::int16_t>(tile_value[(y / tile) * tw + x / tile] + noise(rng));
+  const int islands = w * h / 40;
+  for (int i = 0; i < islands; ++i) {
+    int x = static_cast<int>(u(rng) * w), y = static_cast<int>(u(rng) * h);
+    const std::int16_t v = static_cast<std::int16_t>(p.at(x, y) + 200);
+    for (int n = island_size(rng); n > 0; --n) {
+      p.at(x, y) = v;
+      switch (step(rng)) {
+        case 0: x = std::min(x + 1, w - 1); break;
+        case 1: x = std::max(x - 1, 0); break;
+        case 2: y = std::min(y + 1, h - 1); break;
+        default: y = std::max(y - 1, 0); break;
+      }
+    }
+  }
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (u(rng) < invalid_fraction) p.at(x, y) = kInvalid;
+  return p;
+}
+
+// ------------------------------------------------------------------------------------------
+// Known answers of the reference.
+
+TEST(RefineReference, Median3x3KnownAnswer) {
+  // An impulse (99) disappears, clamped borders repeat the edge, invalid pixels count as the
+  // smallest value: a window with five of them is invalid, one with three takes a low value.
+  const auto src = make_map(5, 5, {10, 10, 10, 10, 10,  //
+                                   10, 99, 10, 20, 20,  //
+                                   10, 10, I, 20, 20,   //
+                                   I, I, I, 20, 20,     //
+                                   30, 30, I, 20, 20});
+  Plane<std::int16_t> dst(5, 5);
+  reference::median_filter(src, 3, dst);
+  const std::vector<std::int16_t> expected = {10, 10, 10, 10, 10,  //
+                                              10, 10, 10, 10, 20,  //
+                                              10, 10, 10, 20, 20,  //
+                                              10, I, 10, 20, 20,   //
+                                              30, I, 20, 20, 20};
+  EXPECT_EQ(pixels(dst), expected);
+}
+
+TEST(RefineReference, FillKnownAnswers) {
+  struct Case {
+    FillMode mode;
+    std::vector<std::int16_t> in, out;
+  };
+  const Case cases[] = {
+      {FillMode::None, {5, I, I, I, 9}, {5, I, I, I, 9}},
+      // Odd run: the middle pixel is as far from 5 as from 9 and takes the smaller.
+      {FillMode::Nearest, {5, I, I, I, 9}, {5, 5, 5, 9, 9}},
+      {FillMode::Nearest, {9, I, I, I, 5}, {9, 9, 5, 5, 5}},
+      {FillMode::Nearest, {9, I, I, I, I, 5}, {9, 9, 9, 5, 5, 5}},
+      {FillMode::NearestLower, {5, I, I, I, 9}, {5, 5, 5, 5, 9}},
+      {FillMode::NearestLower, {9, I, -3, I, I, 7}, {9, -3, -3, -3, -3, 7}},
+      // Runs touching a border take the one neighbour they have; an all-invalid row stays so.
+      {FillMode::Nearest, {I, I, 7, I, 4, I}, {7, 7, 7, 4, 4, 4}},
+      {FillMode::NearestLower, {I, I, 7, I, 4, I}, {7, 7, 7, 4, 4, 4}},
+      {FillMode::Nearest, {I, I, I}, {I, I, I}},
+  };
+  for (const Case& c : cases) {
+    Plane<std::int16_t> p(static_cast<int>(c.in.size()), 1);
+    std::copy(c.in.begin(), c.in.end(), p.row(0));
+    reference::fill_invalid(p, c.mode);
+    EXPECT_EQ(pixels(p), c.out) << "mode " << static_cast<int>(c.mode) << ", case starting " << c.in[0];
+  }
+}
+
+TEST(RefineReference, LrCheckKnownAnswer) {
+  const auto left = make_map(8, 1, {I, 16, 16, 32, 40, 24, 8, 200});
+  const auto right = make_map(8, 1, {16, 16, 32, 24, 48, I, 40, 16});
+  Plane<std::int16_t> dst(8, 1);
+  // Left reference: x matches x - round(d). x = 4 disagrees by 24, x = 6 meets an invalid pixel,
+  // x = 7 points outside the image.
+  reference::lr_check(left, right, -1, 16, dst);
+  EXPECT_EQ(pixels(dst), (std::vector<std::int16_t>{I, 16, 16, 32, I, 24, I, I}));
+  reference::lr_check(left, right, -1, 0, dst);
+  EXPECT_EQ(pixels(dst), (std::vector<std::int16_t>{I, 16, 16, I, I, 24, I, I}));
+  // Right reference: x matches x + round(d).
+  reference::lr_check(right, left, +1, 16, dst);
+  EXPECT_EQ(pixels(dst), (std::vector<std::int16_t>{16, 16, 32, 24, I, I, I, I}));
+  // Negative disparities round half up: -8 -> 0 px, -9 and -24 -> -1 px.
+  const auto neg = make_map(4, 1, {-9, -8, -24, 0});
+  const auto neg_other = make_map(4, 1, {5, -9, 0, -20});
+  Plane<std::int16_t> neg_dst(4, 1);
+  reference::lr_check(neg, neg_other, -1, 16, neg_dst);
+  EXPECT_EQ(pixels(neg_dst), (std::vector<std::int16_t>{-9, -8, -24, I}));
+}
+
+TEST(RefineReference, SpeckleKnownAnswer) {
+  // A 3-pixel region (80, 96, 88: neighbours within 16) and a single pixel 112 that touches it
+  // only diagonally, in a background of 0 with one invalid pixel.
+  const auto map = make_map(6, 5, {0, 0, 0,  0,   0, 0,  //
+                                   0, 80, 96, 0,  0, 0,  //
+                                   0, 88, 0,  112, I, 0,  //
+                                   0, 0,  0,  0,   0, 0,  //
+                                   0, 0,  0,  0,   0, 0});
+  SpeckleScratch scratch = make_scratch(6, 5);
+  const auto run = [&](int max_size) {
+    Plane<std::int16_t> p = copy_of(map);
+    reference::remove_speckles(p, max_size, 16, scratch);
+    return p;
+  };
+  const auto at_4 = run(4), at_3 = run(3), at_1 = run(1);
+  for (auto [x, y] : {std::pair{1, 1}, {2, 1}, {1, 2}, {3, 2}}) EXPECT_EQ(at_4.at(x, y), I) << x << ", " << y;
+  EXPECT_EQ(count_invalid(at_4), 5);
+  EXPECT_EQ(at_3.at(1, 1), 80);
+  EXPECT_EQ(at_3.at(2, 1), 96);
+  EXPECT_EQ(at_3.at(1, 2), 88);
+  EXPECT_EQ(at_3.at(3, 2), I);
+  EXPECT_EQ(count_invalid(at_3), 2);
+  EXPECT_EQ(pixels(at_1), pixels(map));
+}
+
+// ------------------------------------------------------------------------------------------
+// cpu == reference.
+
+TEST(RefineCpu, MedianFilterMatchesReference) {
+  std::uint32_t seed = 100;
+  for (auto [w, h] : awkward_sizes()) {
+    for (const MapKind& kind : kMapKinds) {
+      const auto src = random_disparity(w, h, ++seed, -400, 600, kind.invalid, kind.whole);
+      for (int k : {3, 5}) {
+        Plane<std::int16_t> expected(w, h), actual(w, h);
+        reference::median_filter(src, k, expected);
+        for_each_target_and_threads([&](const std::string& where) {
+          cpu::median_filter(src, k, actual);
+          ASSERT_EQ(first_difference(expected, actual), "")
+              << w << "x" << h << " k " << k << " invalid " << kind.invalid << " on " << where;
+        });
+      }
+    }
+  }
+}
+
+TEST(RefineCpu, MedianFilterMatchesReferenceWithManyTies) {
+  // Two values and invalid pixels: windows full of ties exercise every comparator of the networks.
+  for (double invalid : {0.0, 0.3}) {
+    const auto src = random_disparity(631, 479, invalid > 0 ? 7 : 8, 0, 1, invalid);
+    for (int k : {3, 5}) {
+      Plane<std::int16_t> expected(631, 479), actual(631, 479);
+      reference::median_filter(src, k, expected);
+      for_each_target_and_threads([&](const std::string& where) {
+        cpu::median_filter(src, k, actual);
+        ASSERT_EQ(first_difference(expected, actual), "") << "k " << k << " on " << where;
+      });
+    }
+  }
+}
+
+TEST(RefineCpu, LrCheckMatchesReference) {
+  std::uint32_t seed = 200;
+  for (auto [w, h] : awkward_sizes()) {
+    for (const MapKind& kind : kMapKinds) {
+      // Disparities up to 40 px against widths down to 1, so targets fall both inside and
+      // outside the image; a narrow value range makes agreement within the threshold common.
+      const auto src = random_disparity(w, h, ++seed, -160, 640, kind.invalid, kind.whole);
+      const auto other = random_disparity(w, h, ++seed, -160, 640, kind.invalid / 2, kind.whole);
+      const auto narrow = random_disparity(w, h, ++seed, 0, 40, kind.invalid, kind.whole);
+      const auto narrow_other = random_disparity(w, h, ++seed, 0, 40, kind.invalid, kind.whole);
+      for (int dir : {-1, +1}) {
+        for (int threshold : {0, 16, 32}) {
+          for (auto [a, b] : {std::pair{&src, &other}, {&narrow, &narrow_other}}) {
+            Plane<std::int16_t> expected(w, h), actual(w, h);
+            reference::lr_check(*a, *b, dir, threshold, expected);
+            for_each_target_and_threads([&](const std::string& where) {
+              cpu::lr_check(*a, *b, dir, threshold, actual);
+              ASSERT_EQ(first_difference(expected, actual), "") << w << "x" << h << " dir " << dir
+                                                                << " threshold " << threshold << " on " << where;
+            });
+          }
+        }
+      }
+    }
+  }
+}
+
+TEST(RefineCpu, LrCheckKeepsAndRejectsOnLargeMaps) {
+  // Guards the comparison above against a degenerate outcome (everything invalid or kept).
+  const auto src = random_disparity(631, 479, 5, 0, 40, 0.1);
+  const auto other = random_disparity(631, 479, 6, 0, 40, 0.1);
+  Plane<std::int16_t> actual(631, 479);
+  cpu::lr_check(src, other, -1, 16, actual);
+  const int invalid = count_invalid(actual);
+  EXPECT_GT(invalid, 631 * 479 / 10);
+  EXPECT_LT(invalid, 631 * 479 / 2);
+}
+
+TEST(RefineCpu, RemoveSpecklesMatchesReference) {
+  std::uint32_t seed = 300;
+  for (auto [w, h] : awkward_sizes()) {
+    SpeckleScratch scratch = make_scratch(w, h);
+    for (const MapKind& kind : kMapKinds) {
+      const Plane<std::int16_t> maps[] = {
+          speckle_map(w, h, ++seed, 8, kind.invalid),
+          speckle_map(w, h, ++seed, 16, kind.invalid),
+          // Noise in a narrow range: percolation-like components of every shape.
+          random_disparity(w, h, ++seed, 0, 48, kind.invalid, kind.whole),
+      };
+      for (const auto& map : maps) {
+        for (int max_size : {1, 2, 10, 100}) {
+          Plane<std::int16_t> expected = copy_of(map);
+          reference::remove_speckles(expected, max_size, 16, scratch);
+          if (w * h > 1000 && kind.invalid < 0.5 && max_size >= 10)
+            EXPECT_GT(count_invalid(expected), count_invalid(map)) << w << "x" << h << " size " << max_size;
+          for_each_target_and_threads([&](const std::string& where) {
+            Plane<std::int16_t> actual = copy_of(map);
+            // The scratch holds whatever earlier calls left in it, as in the driver.
+            cpu::remove_speckles(actual, max_size, 16, scratch);
+            ASSERT_EQ(first_difference(expected, actual), "")
+                << w << "x" << h << " size " << max_size << " invalid " << kind.invalid << " on " << where;
+          });
+        }
+      }
+    }
+  }
+}
+
+TEST(RefineCpu, RemoveSpecklesWithSmallerMapThanScratch) {
+  // The driver sizes the scratch for the finest level and reuses it at coarser ones.
+  SpeckleScratch scratch = make_scratch(640, 480);
+  for (auto [w, h] : {std::pair{320, 240}, {161, 121}, {33, 7}}) {
+    const auto map = speckle_map(w, h, 77 + w, 8, 0.05);
+    Plane<std::int16_t> expected = copy_of(map), actual = copy_of(map);
+    reference::remove_speckles(expected, 50, 16, scratch);
+    cpu::remove_speckles(actual, 50, 16, scratch);
+    EXPECT_EQ(first_difference(expected, actual), "") << w << "x" << h;
+  }
+}
+
+TEST(RefineCpu, RemoveSpecklesWithUnusualThresholds) {
+  const auto map = speckle_map(65, 33, 5, 8, 0.1);
+  SpeckleScratch scratch = make_scratch(65, 33);
+  for (int max_diff : {-1, 0, 1000, 70000}) {
+    for (int max_size : {0, 2, 5000}) {
+      Plane<std::int16_t> expected = copy_of(map), actual = copy_of(map);
+      reference::remove_speckles(expected, max_size, max_diff, scratch);
+      cpu::remove_speckles(actual, max_size, max_diff, scratch);
+      EXPECT_EQ(first_difference(expected, actual), "") << "max_diff " << max_diff << " size " << max_size;
+    }
+  }
+}
+
+TEST(RefineCpu, FillInvalidMatchesReference) {
+  std::uint32_t seed = 400;
+  for (auto [w, h] : awkward_sizes()) {
+    // 85 % invalid adds runs longer than the short-run path (8 pixels) takes.
+    for (double invalid : {0.0, 0.1, 0.6, 0.85, 1.0}) {
+      const auto map = random_disparity(w, h, ++seed, -400, 600, invalid, invalid == 0.6);
+      for (FillMode mode : {FillMode::None, FillMode::Nearest, FillMode::NearestLower}) {
+        Plane<std::int16_t> expected = copy_of(map);
+        reference::fill_invalid(expected, mode);
+        for_each_target_and_threads([&](const std::string& where) {
+          Plane<std::int16_t> actual = copy_of(map);
+          cpu::fill_invalid(actual, mode);
+          ASSERT_EQ(first_difference(expected, actual), "") << w << "x" << h << " mode " << static_cast<int>(mode)
+                                                            << " invalid " << invalid << " on " << where;
+        });
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace mctstereo::test

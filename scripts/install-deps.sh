@@ -1,0 +1,10 @@
+#!/bin/sh
+# Installs what mctstereo needs to build, run and test on Debian 12 (run as root, or with sudo).
+set -eu
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends \
+  g++ cmake ninja-build pkg-config \
+  libhwy-dev libopencv-dev libcli11-dev libgtest-dev libbenchmark-dev >/dev/null
