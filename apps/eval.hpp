@@ -1,0 +1,42 @@
+// `mctstereo eval DATA`: Middlebury v2 scores of every scene folder under DATA.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <filesystem>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "options.hpp"
+
+namespace mctstereo::app {
+
+/// The key=value lines of a scene.txt ('#' starts a comment line). RuntimeError if unreadable.
+std::map<std::string, std::string> read_scene_file(const std::filesystem::path& path);
+
+/// Folders holding a scene.txt: `data` itself and every folder below it, sorted by path.
+/// RuntimeError when `data` is not a folder.
+std::vector<std::filesystem::path> find_scene_folders(const std::filesystem::path& data);
+
+class EvalCommand {
+ public:
+  /// Adds the subcommand and its flags to `parent`; must stay where it is until run().
+  explicit EvalCommand(CLI::App& parent);
+  EvalCommand(const EvalCommand&) = delete;
+  EvalCommand& operator=(const EvalCommand&) = delete;
+
+  bool selected() const { return command_->parsed(); }
+  /// Scores every scene, prints the table, writes --json. Throws UsageError / RuntimeError.
+  void run() const;
+
+ private:
+  CLI::App* command_;
+  ParameterFlags parameters_;
+  RunFlags run_flags_;
+  std::string data_, json_;
+  float threshold_ = 1.0f;
+  int repeat_ = 1;
+};
+
+}  // namespace mctstereo::app

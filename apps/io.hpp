@@ -1,0 +1,61 @@
+// Reading the input images and encoding disparity maps into files (PFM, 16-bit PNG, preview).
+#pragma once
+
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "mctstereo/mctstereo.hpp"
+
+namespace mctstereo::app {
+
+/// Reads an image (PNG, PPM, PGM, JPEG, or anything OpenCV decodes) as the matcher takes it:
+/// 8-bit gray or 8-bit BGR; an alpha channel is dropped. `role` names the image in messages
+/// ("left image"). RuntimeError when the file is missing, a folder, unreadable, not an image, or
+/// has samples that are not 8-bit.
+cv::Mat read_input_image(const std::string& path, std::string_view role);
+
+/// Reads an image as 8-bit gray (colour converted, a palette expanded to its grey values), for
+/// ground truth and masks. RuntimeError as read_input_image.
+cv::Mat read_gray_image(const std::string& path, std::string_view role);
+
+/// A view of an 8-bit gray or BGR matrix (as returned by read_input_image).
+ImageView image_view(const cv::Mat& image);
+
+/// How a disparity map is stored in a file.
+enum class DisparityFormat {
+  Pfm,    ///< 32-bit float pixels, +INF = invalid, rows bottom to top, little-endian.
+  Kitti,  ///< 16-bit PNG, value = 256 x d, 0 = invalid (so d = 0 reads as invalid, as in KITTI).
+  Q4,     ///< 16-bit PNG, value = 16 x (d - min_disparity + 1), 0 = invalid; negative d allowed.
+};
+
+std::string_view to_string(DisparityFormat format);
+
+/// The format of a disparity file. Without --format (`format_flag` empty) the extension decides:
+/// .pfm is pfm, .png is kitti. A --format ("pfm", "kitti", "q4") must agree with a .pfm or .png
+/// extension and is taken as it is for any other. UsageError otherwise, naming the file.
+DisparityFormat disparity_format_for(const std::string& path, const std::string& format_flag);
+
+/// UsageError when the disparity range of `params` cannot be written in `format`: KITTI holds
+/// 256 x d in 16 bits, so 0 <= d <= 255.
+void check_format_range(DisparityFormat format, const StereoParams& params, const std::string& path);
+
+/// One sentence telling how to read the values of a file of `format` back into pixels.
+std::string describe_format(DisparityFormat format, int min_disparity);
+
+/// The bytes of a disparity file. `q4` holds 16 x d, with `invalid_q4` where there is no disparity.
+std::vector<std::uint8_t> encode_disparity(MapView<const std::int16_t> q4, std::int16_t invalid_q4,
+                                           int min_disparity, DisparityFormat format);
+
+/// UsageError when OpenCV cannot write an image with the extension of `path`.
+void check_preview_path(const std::string& path);
+
+/// The bytes of a colour preview: the turbo colormap over the fixed range [dmin, dmax] (so maps of
+/// one range compare by colour), invalid pixels black. Encoded as the extension of `path` says.
+std::vector<std::uint8_t> encode_preview(MapView<const std::int16_t> q4, std::int16_t invalid_q4, int dmin,
+                                         int dmax, const std::string& path);
+
+}  // namespace mctstereo::app

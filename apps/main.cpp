@@ -1,0 +1,69 @@
+// mctstereo: the command line. Subcommands match, eval and bench; every failure ends as one line
+// "mctstereo: error: ..." on stderr with exit status 2 (usage) or 1 (runtime).
+#include <CLI/CLI.hpp>
+#include <opencv2/core.hpp>
+
+#include <iostream>
+#include <new>
+#include <string_view>
+
+#include "bench.hpp"
+#include "errors.hpp"
+#include "eval.hpp"
+#include "match.hpp"
+
+namespace {
+
+int fail(int status, const std::string& message) {
+  // Messages are single lines; a stray newline (from a library) must not split the report.
+  std::string line = message;
+  for (char& c : line)
+    if (c == '\n') c = ' ';
+  std::cerr << "mctstereo: error: " << line << "\n";
+  return status;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace mctstereo::app;
+  CLI::App app{"mctstereo: dense stereo matching on the (modified) census transform, coarse to fine."};
+  app.name("mctstereo");
+  app.require_subcommand(1);
+  app.footer("Run 'mctstereo SUBCOMMAND --help' for the flags of a subcommand.\n");
+  MatchCommand match(app);
+  EvalCommand eval(app);
+  BenchCommand bench(app);
+
+  // CLI11 would call a misspelt subcommand a stray argument; name it instead.
+  if (argc > 1 && argv[1][0] != '-' && std::string_view(argv[1]) != "match" && std::string_view(argv[1]) != "eval" &&
+      std::string_view(argv[1]) != "bench")
+    return fail(kExitUsage, std::string("unknown subcommand '") + argv[1] + "' (known: match, eval, bench)");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);  // --help
+    return fail(kExitUsage, std::string(e.what()) + " (see --help)");
+  }
+
+  try {
+    if (match.selected()) match.run();
+    if (eval.selected()) eval.run();
+    if (bench.selected()) bench.run();
+    return 0;
+  } catch (const UsageError& e) {
+    return fail(kExitUsage, e.what());
+  } catch (const RuntimeError& e) {
+    return fail(kExitRuntime, e.what());
+  } catch (const std::invalid_argument& e) {
+    // The library names the parameter or image it rejects.
+    return fail(kExitUsage, e.what());
+  } catch (const cv::Exception& e) {
+    return fail(kExitRuntime, "OpenCV: " + e.err);
+  } catch (const std::bad_alloc&) {
+    return fail(kExitRuntime, "out of memory");
+  } catch (const std::exception& e) {
+    return fail(kExitRuntime, e.what());
+  }
+}

@@ -1,0 +1,231 @@
+#include "options.hpp"
+
+#include <cctype>
+#include <sstream>
+#include <stdexcept>
+
+#include "errors.hpp"
+
+namespace mctstereo::app {
+
+namespace {
+
+constexpr const char* kParameterGroup = "Parameters (default: the preset's value)";
+
+// StereoParams field -> the flag that sets it; used to point validate()'s messages at a flag.
+struct FieldFlag {
+  const char* field;
+  const char* flag;
+};
+constexpr FieldFlag kFieldFlags[] = {
+    {"min_disparity", "--min-disparity"},
+    {"num_disparities", "--num-disparities"},
+    {"census_window", "--census-window"},
+    {"shd_window", "--shd-window"},
+    {"coarse_shd_window", "--coarse-shd-window"},
+    {"pyramid_levels", "--levels"},
+    {"search_radius", "--search-radius"},
+    {"median_size", "--median"},
+    {"post_median_size", "--post-median"},
+    {"lr_threshold", "--lr-threshold"},
+    {"speckle_size", "--speckle-size"},
+    {"uniqueness_ratio", "--uniqueness"},
+    {"working_scale", "--scale"},
+};
+
+bool is_identifier_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
+
+// Whether `word` occurs in `line` as a whole identifier (so "shd_window" does not match inside
+// "coarse_shd_window").
+bool contains_word(std::string_view line, std::string_view word) {
+  for (std::size_t at = line.find(word); at != std::string_view::npos; at = line.find(word, at + 1)) {
+    const bool starts = at == 0 || !is_identifier_char(line[at - 1]);
+    const bool ends = at + word.size() == line.size() || !is_identifier_char(line[at + word.size()]);
+    if (starts && ends) return true;
+  }
+  return false;
+}
+
+template <typename Enum>
+Enum parse_enum(const std::string& text, std::initializer_list<Enum> values) {
+  for (Enum v : values)
+    if (to_string(v) == text) return v;
+  throw UsageError("unexpected value '" + text + "'");  // CLI11's IsMember check runs first
+}
+
+}  // namespace
+
+template <typename T>
+void ParameterFlags::add(CLI::App& app, const std::string& names, T& storage, const std::string& help,
+                         std::function<void(StereoParams&)> apply) {
+  CLI::Option* option;
+  if constexpr (std::is_same_v<T, bool>)
+    option = app.add_flag(names, storage, help);
+  else
+    option = app.add_option(names, storage, help);
+  option->group(kParameterGroup);
+  overrides_.push_back({names.substr(0, names.find(',')), option, std::move(apply)});
+}
+
+ParameterFlags::ParameterFlags(CLI::App& app) {
+  std::string presets;
+  for (const std::string& name : preset_names())
+    presets += "\n  " + name + ": " + std::string(preset_description(name));
+  app.add_option("--preset", preset_name_,
+                 "named parameter set, applied before the other parameter flags (default balanced):" + presets)
+      ->group(kParameterGroup);
+
+  StereoParams& v = values_;
+  add(app, "--min-disparity", v.min_disparity,
+      "smallest disparity searched, pixels; may be negative; [-1024, 1024]. Disparity d: left pixel x matches "
+      "right pixel x - d",
+      [&v](StereoParams& p) { p.min_disparity = v.min_disparity; });
+  add(app, "--num-disparities", v.num_disparities,
+      "number of disparities searched (any count, [1, 2048]): min .. min + N - 1",
+      [&v](StereoParams& p) { p.num_disparities = v.num_disparities; });
+  app.add_option("--census", census_, "local transform: ct (census) or mct (modified census, 3x3 mean reference)")
+      ->check(CLI::IsMember({"ct", "mct"}))
+      ->group(kParameterGroup);
+  overrides_.push_back({"--census", app.get_option("--census"), [this](StereoParams& p) {
+                          p.census = parse_enum(census_, {CensusKind::Census, CensusKind::ModifiedCensus});
+                        }});
+  add(app, "--census-window", v.census_window, "census window side: 3, 5, 7 or 9 pixels",
+      [&v](StereoParams& p) { p.census_window = v.census_window; });
+  app.add_option("--mct-kernel", mct_kernel_, "3x3 kernel of the MCT mean: mean (box) or gaussian (1 2 1)")
+      ->check(CLI::IsMember({"mean", "gaussian"}))
+      ->group(kParameterGroup);
+  overrides_.push_back({"--mct-kernel", app.get_option("--mct-kernel"), [this](StereoParams& p) {
+                          p.mct_kernel = parse_enum(mct_kernel_, {MeanKernel::Box, MeanKernel::Gaussian});
+                        }});
+  add(app, "--shd-window", v.shd_window,
+      "side of the window summing Hamming distances at the finest level: 1, 3, 5, 7 or 9",
+      [&v](StereoParams& p) { p.shd_window = v.shd_window; });
+  add(app, "--coarse-shd-window", v.coarse_shd_window, "the same at the coarser pyramid levels: 1, 3, 5, 7 or 9",
+      [&v](StereoParams& p) { p.coarse_shd_window = v.coarse_shd_window; });
+  add(app, "--levels", v.pyramid_levels, "pyramid levels, [1, 5]; 1 = one level with the full search",
+      [&v](StereoParams& p) { p.pyramid_levels = v.pyramid_levels; });
+  add(app, "--search-radius", v.search_radius,
+      "extra search around the coarser level's disparity, pixels of the level, [0, 16]",
+      [&v](StereoParams& p) { p.search_radius = v.search_radius; });
+  add(app, "--subpixel,!--no-subpixel", v.subpixel, "sub-pixel refinement by a parabola (1/16 px steps)",
+      [&v](StereoParams& p) { p.subpixel = v.subpixel; });
+  add(app, "--median", v.median_size, "median filter side: 0 (off), 3 or 5",
+      [&v](StereoParams& p) { p.median_size = v.median_size; });
+  add(app, "--post-median", v.post_median_size,
+      "median filter side after filling (smooths the fill's streaks): 0 (off), 3 or 5",
+      [&v](StereoParams& p) { p.post_median_size = v.post_median_size; });
+  add(app, "--lr-check,!--no-lr-check", v.lr_check, "left-right consistency check",
+      [&v](StereoParams& p) { p.lr_check = v.lr_check; });
+  add(app, "--lr-threshold", v.lr_threshold, "largest left-right difference kept, pixels of the level, [0, 16]",
+      [&v](StereoParams& p) { p.lr_threshold = v.lr_threshold; });
+  add(app, "--speckle-size", v.speckle_size,
+      "regions smaller than this many pixels become invalid; 0 = off; [0, 1000000]",
+      [&v](StereoParams& p) { p.speckle_size = v.speckle_size; });
+  add(app, "--uniqueness", v.uniqueness_ratio,
+      "invalid where the second best cost is within this percent of the best; 0 = off; [0, 100]",
+      [&v](StereoParams& p) { p.uniqueness_ratio = v.uniqueness_ratio; });
+  app.add_option("--fill", fill_,
+                 "filling of invalid pixels along the row: none, nearest, or nearest-lower (background wins)")
+      ->check(CLI::IsMember({"none", "nearest", "nearest-lower"}))
+      ->group(kParameterGroup);
+  overrides_.push_back({"--fill", app.get_option("--fill"), [this](StereoParams& p) {
+                          p.fill = parse_enum(fill_, {FillMode::None, FillMode::Nearest, FillMode::NearestLower});
+                        }});
+  add(app, "--refine-all-levels,!--finest-only", v.refine_all_levels,
+      "refine (median, LR check, speckles, fill) at every pyramid level, or at the finest only",
+      [&v](StereoParams& p) { p.refine_all_levels = v.refine_all_levels; });
+  add(app, "--scale", v.working_scale,
+      "working scale: 1, 2 or 4; match on the image reduced this many times, output at full size",
+      [&v](StereoParams& p) { p.working_scale = v.working_scale; });
+}
+
+StereoParams ParameterFlags::resolve() const {
+  StereoParams params;
+  try {
+    params = preset(preset_name_);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--preset: ") + e.what());
+  }
+  for (const Override& o : overrides_)
+    if (o.option->count() > 0) o.apply(params);
+  return params;
+}
+
+bool ParameterFlags::given(std::string_view flag) const {
+  for (const Override& o : overrides_)
+    if (o.flag == flag) return o.option->count() > 0;
+  return false;
+}
+
+void RunFlags::add_to(CLI::App& app) {
+  app.add_option("--backend", backend, "where the pipeline runs: cpu (SIMD + threads) or reference (scalar)")
+      ->capture_default_str();
+  app.add_option("--threads", threads, "threads of the cpu backend; 0 = all cores")
+      ->check(CLI::Range(0, 4096))
+      ->capture_default_str();
+}
+
+Backend RunFlags::parsed_backend() const {
+  try {
+    return parse_backend(backend);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--backend: ") + e.what());
+  }
+}
+
+namespace {
+
+// One line from validate()'s messages (one per problem), each followed by the flags it concerns.
+[[noreturn]] void throw_invalid_parameters(const std::string& problems, std::string message) {
+  std::istringstream lines(problems);
+  std::string line;
+  bool first = true;
+  while (std::getline(lines, line)) {
+    std::string flags;
+    for (const FieldFlag& f : kFieldFlags)
+      if (contains_word(line, f.field)) flags += (flags.empty() ? "" : ", ") + std::string(f.flag);
+    message += (first ? "" : "; ") + line + (flags.empty() ? "" : " (" + flags + ")");
+    first = false;
+  }
+  throw UsageError(message);
+}
+
+}  // namespace
+
+void check_parameters(const StereoParams& params) {
+  const std::string problems = params.validate();
+  if (!problems.empty()) throw_invalid_parameters(problems, "invalid parameters: ");
+}
+
+void check_parameters(const StereoParams& params, int width, int height) {
+  const std::string problems = params.validate(width, height);
+  if (!problems.empty())
+    throw_invalid_parameters(problems, "invalid parameters for the " + std::to_string(width) + "x" +
+                                           std::to_string(height) + " image: ");
+}
+
+Json parameters_json(const StereoParams& p) {
+  Json j = Json::object();
+  j.set("min_disparity", p.min_disparity);
+  j.set("num_disparities", p.num_disparities);
+  j.set("census", to_string(p.census));
+  j.set("census_window", p.census_window);
+  j.set("mct_kernel", to_string(p.mct_kernel));
+  j.set("shd_window", p.shd_window);
+  j.set("coarse_shd_window", p.coarse_shd_window);
+  j.set("pyramid_levels", p.pyramid_levels);
+  j.set("search_radius", p.search_radius);
+  j.set("subpixel", p.subpixel);
+  j.set("median_size", p.median_size);
+  j.set("lr_check", p.lr_check);
+  j.set("lr_threshold", p.lr_threshold);
+  j.set("speckle_size", p.speckle_size);
+  j.set("uniqueness_ratio", p.uniqueness_ratio);
+  j.set("fill", to_string(p.fill));
+  j.set("post_median_size", p.post_median_size);
+  j.set("refine_all_levels", p.refine_all_levels);
+  j.set("working_scale", p.working_scale);
+  return j;
+}
+
+}  // namespace mctstereo::app
