@@ -155,7 +155,7 @@ struct Matcher::Impl {
       speckle_scratch.stack =
           detail::allocate_aligned<std::int32_t>(static_cast<std::size_t>(levels[0].width) * levels[0].height);
     }
-    for (int v = 0; v < (need_right ? 2 : 1); ++v) {
+    for (int v = 0; v < (o.compute_right ? 2 : 1); ++v) {
       if (scale_steps > 0) upscaled[v].reset(w, h);
       out_q4[v].reset(w, h);
     }
@@ -167,8 +167,11 @@ struct Matcher::Impl {
     return l == 0 ? full_gray[v].back() : levels[l].image[v];
   }
 
-  void refine(Level& L) {
+  // Refines the maps of one level. At the finest level the right map only serves the left map's
+  // LR check, so unless the caller asked for it, its refinement stops there.
+  void refine(Level& L, bool finest) {
     const int views = need_right ? 2 : 1;
+    const int kept = finest && !options.compute_right ? 1 : views;
     if (params.median_size > 0) {
       for (int v = 0; v < views; ++v) {
         stages->median_filter(L.disparity[v], params.median_size, L.scratch[v]);
@@ -177,19 +180,35 @@ struct Matcher::Impl {
     }
     if (params.lr_check) {
       // Both checks read the maps as they were before either was checked.
-      stages->lr_check(L.disparity[0], L.disparity[1], -1, 16 * params.lr_threshold, L.scratch[0]);
-      stages->lr_check(L.disparity[1], L.disparity[0], +1, 16 * params.lr_threshold, L.scratch[1]);
-      std::swap(L.disparity[0], L.scratch[0]);
-      std::swap(L.disparity[1], L.scratch[1]);
+      for (int v = 0; v < kept; ++v)
+        stages->lr_check(L.disparity[v], L.disparity[1 - v], v == 0 ? -1 : +1, 16 * params.lr_threshold, L.scratch[v]);
+      for (int v = 0; v < kept; ++v) std::swap(L.disparity[v], L.scratch[v]);
     }
     const int speckle = params.speckle_size >> (2 * L.scale_log2);
     if (speckle > 1)
-      for (int v = 0; v < views; ++v) stages->remove_speckles(L.disparity[v], speckle, 16, speckle_scratch);
-    for (int v = 0; v < views; ++v) stages->fill_invalid(L.disparity[v], params.fill);
+      for (int v = 0; v < kept; ++v) stages->remove_speckles(L.disparity[v], speckle, 16, speckle_scratch);
+    for (int v = 0; v < kept; ++v) stages->fill_invalid(L.disparity[v], params.fill);
     if (params.post_median_size > 0) {
-      for (int v = 0; v < views; ++v) {
+      for (int v = 0; v < kept; ++v) {
         stages->median_filter(L.disparity[v], params.post_median_size, L.scratch[v]);
         std::swap(L.disparity[v], L.scratch[v]);
+      }
+    }
+  }
+
+  // Internal maps (kInvalid) to the caller's conventions: Q4 with (dmin - 1) * 16, float with NaN.
+  void write_outputs(const Plane<std::int16_t>& result, int v) {
+    const std::int16_t invalid = invalid_q4();
+    const bool threaded = backend == Backend::Cpu;
+#pragma omp parallel for schedule(static) if (threaded)
+    for (int y = 0; y < height; ++y) {
+      const std::int16_t* src = result.row(y);
+      std::int16_t* q4 = out_q4[v].row(y);
+      for (int x = 0; x < width; ++x) q4[x] = src[x] == kInvalid ? invalid : src[x];
+      if (v == 0) {
+        float* f = out_float.row(y);
+        for (int x = 0; x < width; ++x)
+          f[x] = src[x] == kInvalid ? NAN : static_cast<float>(src[x]) * (1.0f / kDisparityScale);
       }
     }
   }
@@ -238,28 +257,18 @@ struct Matcher::Impl {
         stages->match(L.codes[v], L.codes[1 - v], L.lo[v], L.hi[v], match, match_scratch, L.disparity[v]);
       }
       slot_ms[kMatch] += clock.lap_ms();
-      if (L.refine) refine(L);
+      if (L.refine) refine(L, l == 0);
       slot_ms[kRefine] += clock.lap_ms();
     }
 
     const int scale = params.working_scale;
-    for (int v = 0; v < views; ++v) {
+    for (int v = 0; v < (options.compute_right ? 2 : 1); ++v) {
       const Plane<std::int16_t>* result = &levels[0].disparity[v];
       if (scale > 1) {
         stages->upscale(*result, scale, 16 * params.min_disparity, 16 * params.max_disparity(), upscaled[v]);
         result = &upscaled[v];
       }
-      const std::int16_t invalid = invalid_q4();
-      for (int y = 0; y < height; ++y) {
-        const std::int16_t* src = result->row(y);
-        std::int16_t* q4 = out_q4[v].row(y);
-        float* f = v == 0 ? out_float.row(y) : nullptr;
-        for (int x = 0; x < width; ++x) {
-          const bool valid = src[x] != kInvalid;
-          q4[x] = valid ? src[x] : invalid;
-          if (f) f[x] = valid ? static_cast<float>(src[x]) * (1.0f / kDisparityScale) : NAN;
-        }
-      }
+      write_outputs(*result, v);
     }
     slot_ms[kOutput] += clock.lap_ms();
     slot_ms[kFrame] = frame.lap_ms();
@@ -287,7 +296,7 @@ MapView<const float> Matcher::disparity() const {
   return {p.row(0), p.width(), p.height(), p.stride()};
 }
 MapView<const std::int16_t> Matcher::right_disparity_q4() const {
-  if (!impl_->need_right) return {};
+  if (!impl_->options.compute_right) return {};
   const auto& p = impl_->out_q4[1];
   return {p.row(0), p.width(), p.height(), p.stride()};
 }
@@ -343,7 +352,8 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
   total += threads * detail::cpu::match_scratch_bytes(w0, max_range, std::max(params.shd_window, params.coarse_shd_window));
   if (params.speckle_size > 0) total += plane_bytes(w0, h0, 0, 4) + static_cast<std::size_t>(w0) * h0 * 4;
-  total += views * plane_bytes(width, height, 0, 2) * (scale_steps > 0 ? 2 : 1) + plane_bytes(width, height, 0, 4);
+  const int outputs = options.compute_right ? 2 : 1;
+  total += outputs * plane_bytes(width, height, 0, 2) * (scale_steps > 0 ? 2 : 1) + plane_bytes(width, height, 0, 4);
   return total;
 }
 

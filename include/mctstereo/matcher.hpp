@@ -30,7 +30,7 @@ inline constexpr int kDisparityScale = 1 << kDisparityShift;
 struct MatcherOptions {
   /// OpenMP threads of the cpu backend; 0 = the OpenMP default (all cores). Ignored by reference.
   int threads = 0;
-  /// Also produce the right-view disparity map (it is computed anyway when lr_check is on).
+  /// Also produce the refined right-view disparity map (the LR check computes a raw one anyway).
   bool compute_right = false;
 };
 
@@ -65,8 +65,8 @@ class Matcher {
   MapView<const std::int16_t> disparity_q4() const;
   /// Left disparity in pixels, NaN where invalid.
   MapView<const float> disparity() const;
-  /// Right-view disparity (Q4; the right pixel x matches left x + d). Empty (null data) unless
-  /// MatcherOptions::compute_right or params.lr_check.
+  /// Right-view disparity (Q4; the right pixel x matches left x + d), refined like the left one.
+  /// Empty (null data) unless MatcherOptions::compute_right.
   MapView<const std::int16_t> right_disparity_q4() const;
 
   /// The Q4 value of invalid pixels: (min_disparity - 1) * 16, as OpenCV.

@@ -1,9 +1,695 @@
-// PLACEHOLDER: forwards to the reference until the SIMD version lands.
+// SHD cost and winner-takes-all: Highway SIMD over columns, OpenMP over tiles.
+//
+// The image is cut into tiles of kRows rows and kTile - (a - 1) columns (a = SHD window). Per tile:
+//  1. Bounds. Each pixel's candidate interval [F, L] is [lo, hi] clipped to the candidates whose
+//     matching pixel x + dir d lies in the image. Their union U over the tile, and the hulls of
+//     the intervals per column (over the tile's rows) and per row (over its columns).
+//  2. Cost band. For each candidate d of U, the costs of the pixels that may search d, as int16 in
+//     band[row][d - c0][column]. Only the rectangle of columns x rows whose hulls contain d is
+//     computed, so at the finer pyramid levels (narrow ranges around a prior that varies across
+//     the tile) the work follows the per-pixel range widths rather than |U| for every pixel.
+//     The a x a window sum is separable. Each Hamming row H(x', y', d) (XOR + popcount of the
+//     census words in u32 lanes, narrowed to int16) updates a vertical running sum over a rows
+//     (add the row entering, subtract the row leaving, kept in a ring of a rows); the box sum is
+//     then a horizontal sum of a neighbours. A cost takes one popcount per census word and O(a)
+//     int16 adds instead of a * a popcounts. With a tile a - 1 columns narrower than kTile, a
+//     full-width Hamming row (tile plus window margins) is exactly kTile columns, whole vectors.
+//  3. Winner-takes-all over the band, vectorised over the pixels of a row (WtaBest, WtaSecond;
+//     over pixels rather than candidates because at the finer levels a pixel has only 5..12
+//     candidates, fewer than the lanes), then the Q4 disparities, the sub-pixel offset and the
+//     uniqueness test (Finalize).
+// Cost and WTA are separate passes over the band on purpose: a cost aggregation stage
+// (semi-global paths) can later sit between them.
+//
+// A union wider than the scratch band (more than kMaxChunk candidates) goes through the band in
+// chunks; a one-pass WTA (WtaChunkSteps) then carries every pixel's state from chunk to chunk,
+// which gives the same result because the candidates are still visited in increasing order.
+//
+// Exactness: costs are at most 9 * 9 * 80 = 6480, so int16 lanes never overflow, and kInf =
+// INT16_MAX is larger than any cost. Code planes carry kCodePad = 8 replicated columns and a
+// valid candidate's window reads columns in [-4, w + 4), so reading the planes directly is
+// exactly the reference's clamped read (vector overrun past that stays in the rows' 64-byte
+// slack and only feeds lanes that are never used). Rows are clamped through the row pointers.
+
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "cpu/match.cpp"
+// AVX3_DL (Ice Lake and later) has a native 32-bit popcount (VPOPCNTDQ), which this stage lives
+// on; Highway 1.0.3 compiles that target only on request.
+#ifndef HWY_WANT_AVX3_DL
+#define HWY_WANT_AVX3_DL
+#endif
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
+#ifndef MCTSTEREO_CPU_MATCH_LAYOUT
+#define MCTSTEREO_CPU_MATCH_LAYOUT
+
+#include <omp.h>
+
+#include <algorithm>
+#include <bit>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+
 #include "stages.hpp"
+
+namespace mctstereo::detail::cpu::match_layout {
+
+// Band row length: a multiple of every lane count (int16 vectors are capped at 32 lanes below).
+// 16 rows keep the vertical overhead of the running sums ((a - 1) extra Hamming rows per tile and
+// candidate) at 25 % for a = 5. Measured on Middlebury cones and a synthetic slanted scene,
+// 64 x 32 and 128 x 16 tiles ran as fast, 32 x 16, 32 x 32 and 128 x 8 up to 15 % slower.
+constexpr int kTile = 64;
+constexpr int kRows = 16;
+// Candidates the band holds at once: 256 x 16 rows x 64 columns x 2 bytes = 512 KiB, which stays
+// in the L2 cache between the cost pass that writes it and the WTA pass that reads it. Wider
+// unions (more than 256 disparities at one level) go through the band in chunks.
+constexpr int kMaxChunk = 256;
+constexpr int kMaxLanes16 = 32;
+// One row of the vertical sum V (int16): a front margin of a vector (the horizontal sums start at
+// a vector boundary left of the first needed column), the tile with its window margins, and the
+// overrun of the last vector.
+constexpr int kVFront = 32;
+constexpr int kVLen = kVFront + kTile + 64 + 32;
+constexpr std::size_t kVBytes = kVLen * sizeof(std::int16_t);
+constexpr std::size_t kVRowsBytes = kRows * kVBytes;  // one V row per output row
+constexpr std::size_t kRingBytes = 9 * kVBytes;
+constexpr std::size_t kStateWords = 8;  // WTA state vectors per pixel vector (see WtaTile)
+constexpr std::size_t kStateBytes = kStateWords * kRows * kTile * sizeof(std::int16_t);
+constexpr std::size_t kBandBytesPerCandidate = kRows * kTile * sizeof(std::int16_t);
+constexpr std::size_t kFixedBytes = kVRowsBytes + kRingBytes + kStateBytes;
+
+}  // namespace mctstereo::detail::cpu::match_layout
 
 namespace mctstereo::detail::cpu {
 
-std::size_t match_scratch_bytes(int width, int max_range, int shd_window) { return reference::match_scratch_bytes(width, max_range, shd_window); }
-void match(const CensusCodes& ref, const CensusCodes& other, const Plane<std::int16_t>& lo, const Plane<std::int16_t>& hi, const MatchConfig& config, MatchScratch& scratch, Plane<std::int16_t>& disparity) { reference::match(ref, other, lo, hi, config, scratch, disparity); }
+/// Everything one tile needs, shared by all tiles of a call.
+struct MatchJob {
+  const CensusCodes* ref;
+  const CensusCodes* other;
+  const Plane<std::int16_t>* lo;
+  const Plane<std::int16_t>* hi;
+  const MatchConfig* config;
+  Plane<std::int16_t>* disparity;
+  int tile_w;   // pixels per tile row (<= kTile, see match())
+  int tiles_x;
+};
 
 }  // namespace mctstereo::detail::cpu
+
+#endif  // MCTSTEREO_CPU_MATCH_LAYOUT
+
+HWY_BEFORE_NAMESPACE();
+namespace mctstereo::detail::cpu::HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+using namespace match_layout;
+
+constexpr std::int16_t kInf = INT16_MAX;
+
+// At most 64-byte vectors: the planes guarantee 64 bytes of slack after each row, no more.
+using D16 = hn::CappedTag<std::int16_t, kMaxLanes16>;
+using DU32 = hn::CappedTag<std::uint32_t, 16>;
+using DI32 = hn::RebindToSigned<DU32>;
+using D16H = hn::Rebind<std::int16_t, DU32>;  // int16 lanes, as many as DU32 has
+using V16 = hn::Vec<D16>;
+
+// Per-tile bounds of the candidate intervals (absolute disparities; an empty interval is stored as
+// F = INT16_MAX, L = INT16_MIN so that it never widens a min/max hull).
+struct TileBounds {
+  alignas(64) std::int16_t F[kRows][kTile];
+  alignas(64) std::int16_t L[kRows][kTile];
+  alignas(64) std::int16_t col_f[kTile];
+  alignas(64) std::int16_t col_l[kTile];
+  std::int16_t row_f[kRows], row_l[kRows];
+};
+
+// Row pointers of both code planes for the tile rows -4 .. kRows + 3 (clamped to the image).
+struct TileRows {
+  int x0;
+  const std::uint32_t* ref[3][kRows + 8];
+  const std::uint32_t* other[3][kRows + 8];
+};
+
+// A vector of one Hamming row folded into the vertical running sum: mode 0: dst = H; mode 1:
+// dst = src + H; mode 2: dst = src + H - (the row leaving the window, from its ring slot). With
+// kKeep the ring slot then receives H, for the row that will subtract it.
+template <int kMode, bool kKeep, class D, class V>
+HWY_INLINE void Fold(D d, V h, const std::int16_t* src, std::int16_t* dst, std::int16_t* slot) {
+  V v = h;
+  if constexpr (kMode >= 1) v = hn::Add(hn::LoadU(d, src), h);
+  if constexpr (kMode == 2) v = hn::Sub(v, hn::LoadU(d, slot));
+  hn::StoreU(v, d, dst);
+  if constexpr (kKeep) hn::StoreU(h, d, slot);
+}
+
+template <int kWords>
+HWY_INLINE hn::Vec<DU32> Popcounts(const std::uint32_t* const* rp, const std::uint32_t* const* op, int j) {
+  const DU32 du32;
+  auto pc = hn::PopulationCount(hn::Xor(hn::LoadU(du32, rp[0] + j), hn::LoadU(du32, op[0] + j)));
+  if constexpr (kWords > 1)
+    pc = hn::Add(pc, hn::PopulationCount(hn::Xor(hn::LoadU(du32, rp[1] + j), hn::LoadU(du32, op[1] + j))));
+  if constexpr (kWords > 2)
+    pc = hn::Add(pc, hn::PopulationCount(hn::Xor(hn::LoadU(du32, rp[2] + j), hn::LoadU(du32, op[2] + j))));
+  return pc;
+}
+
+#if HWY_TARGET != HWY_SCALAR
+// Two u32 vectors of popcounts (at most 96 each) as one int16 vector, columns in order.
+HWY_INLINE V16 NarrowPair(hn::Vec<DU32> lo, hn::Vec<DU32> hi) {
+  const D16 d16;
+  const DI32 di32;
+#if HWY_TARGET == HWY_AVX2 || HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+  // The x86 pack works per 128-bit block (lo's 4 values, then hi's); one 64-bit lane permute
+  // puts the blocks back in column order: one shuffle less than a general two-table permute.
+  const V16 packed = hn::ReorderDemote2To(d16, hn::BitCast(di32, lo), hn::BitCast(di32, hi));
+  const hn::Repartition<std::uint64_t, D16> d64;
+#if HWY_TARGET == HWY_AVX2
+  alignas(32) static constexpr std::uint64_t kOrder[4] = {0, 2, 1, 3};
+#else
+  alignas(64) static constexpr std::uint64_t kOrder[8] = {0, 2, 4, 6, 1, 3, 5, 7};
+#endif
+  return hn::BitCast(d16, hn::TableLookupLanes(hn::BitCast(d64, packed), hn::SetTableIndices(d64, kOrder)));
+#elif HWY_TARGET == HWY_SSE4 || HWY_TARGET == HWY_SSSE3 || HWY_TARGET == HWY_EMU128
+  return hn::ReorderDemote2To(d16, hn::BitCast(di32, lo), hn::BitCast(di32, hi));  // in order
+#else
+  // Elsewhere the low halves of the u32 lanes are the values.
+  const hn::RebindToUnsigned<D16> du16;
+  return hn::BitCast(d16, hn::ConcatEven(du16, hn::BitCast(du16, hi), hn::BitCast(du16, lo)));
+#endif
+}
+#endif
+
+// One Hamming row of candidate d over n columns (see Fold).
+template <int kWords, int kMode, bool kKeep>
+HWY_INLINE void HammingRow(const std::uint32_t* const* rp, const std::uint32_t* const* op, int n,
+                           const std::int16_t* src, std::int16_t* dst, std::int16_t* slot) {
+  const DU32 du32;
+  const DI32 di32;
+  const D16H d16h;
+  const int N = static_cast<int>(hn::Lanes(du32));
+  int j = 0;
+#if HWY_TARGET != HWY_SCALAR
+  // Two u32 vectors of popcounts become one full int16 vector: the sums then run on twice the
+  // lanes per instruction.
+  const D16 d16;
+  for (; j + N < n; j += 2 * N) {
+    const V16 h = NarrowPair(Popcounts<kWords>(rp, op, j), Popcounts<kWords>(rp, op, j + N));
+    Fold<kMode, kKeep>(d16, h, src + j, dst + j, slot + j);
+  }
+#endif
+  // The rest (at most one u32 vector on SIMD targets) a half at a time.
+  for (; j < n; j += N) {
+    const auto h = hn::DemoteTo(d16h, hn::BitCast(di32, Popcounts<kWords>(rp, op, j)));
+    Fold<kMode, kKeep>(d16h, h, src + j, dst + j, slot + j);
+  }
+}
+
+// Costs of candidate d for the tile columns [xa, xb) and rows [ya, yb) (tile-local), into
+// band[(r * kc + d - c0) * kTile + x]. First all vertical sums (one V row per output row, each
+// computed from the previous one), then all horizontal sums: the box sums read V with unaligned
+// loads that straddle the stores which wrote it, and reading a row right after writing it would
+// stall on store-to-load forwarding (measured: 20 % of the whole stage); a whole pass later those
+// stores have reached the cache.
+template <int kWords, int kA>
+void CostRectangle(const TileRows& tr, int s, int d, int xa, int xb, int ya, int yb,
+                   std::int16_t* band, int kc, int c0, std::int16_t* vrows, std::int16_t* ring) {
+  constexpr int kH = kA / 2;
+  const int n = xb - xa + 2 * kH;      // columns of V: the output columns and the margins
+  const int gx = tr.x0 + xa - kH;      // image column of V[0]
+  const int outs = yb - ya;
+  const std::uint32_t* rp[3];
+  const std::uint32_t* op[3];
+  const auto set_rows = [&](int rr) {  // Hamming row rr is tile row ya - kH + rr
+    const int t = ya - kH + rr + 4;    // TileRows starts at tile row -4
+    for (int k = 0; k < kWords; ++k) {
+      rp[k] = tr.ref[k][t] + gx;
+      op[k] = tr.other[k][t] + gx + s;
+    }
+  };
+  std::int16_t* v0 = vrows + kVFront;
+  if constexpr (kA == 1) {
+    for (int o = 0; o < outs; ++o) {
+      set_rows(o);
+      HammingRow<kWords, 0, false>(rp, op, n, v0, v0 + o * kVLen, ring);  // no ring needed
+    }
+  } else {
+    // The first a rows build V row 0, each also kept in ring slot rr.
+    set_rows(0);
+    HammingRow<kWords, 0, true>(rp, op, n, v0, v0, ring);
+    for (int rr = 1; rr < kA; ++rr) {
+      set_rows(rr);
+      HammingRow<kWords, 1, true>(rp, op, n, v0, v0, ring + rr * kVLen);
+    }
+    // Every further row gives the next V row: the previous one + the entering row - the leaving
+    // row, whose ring slot the entering row then takes.
+    int slot = 0;
+    for (int o = 1; o < outs; ++o) {
+      set_rows(o + kA - 1);
+      std::int16_t* dst = v0 + o * kVLen;
+      HammingRow<kWords, 2, true>(rp, op, n, dst - kVLen, dst, ring + slot * kVLen);
+      if (++slot == kA) slot = 0;
+    }
+  }
+  // Horizontal sums: vsum[j] holds the vertical sum of column xa - h + j, so the box of column x
+  // starts at x - xa. Stores start at a vector boundary of the band row.
+  const D16 d16;
+  const int N16 = static_cast<int>(hn::Lanes(d16));
+  const int xs = xa - xa % N16;
+  for (int o = 0; o < outs; ++o) {
+    const std::int16_t* vsum = v0 + o * kVLen;
+    std::int16_t* dst = band + ((ya + o) * kc + (d - c0)) * kTile;
+    for (int x = xs; x < xb; x += N16) {
+      const std::int16_t* v = vsum + (x - xa);
+      V16 sum = hn::LoadU(d16, v);
+      for (int i = 1; i < kA; ++i) sum = hn::Add(sum, hn::LoadU(d16, v + i));
+      hn::Store(sum, d16, dst + x);
+    }
+  }
+}
+
+using CostFn = void (*)(const TileRows&, int, int, int, int, int, int, std::int16_t*, int, int,
+                        std::int16_t*, std::int16_t*);
+
+template <int kWords>
+CostFn CostFor(int a) {
+  switch (a) {
+    case 1: return &CostRectangle<kWords, 1>;
+    case 3: return &CostRectangle<kWords, 3>;
+    case 5: return &CostRectangle<kWords, 5>;
+    case 7: return &CostRectangle<kWords, 7>;
+    default: return &CostRectangle<kWords, 9>;
+  }
+}
+
+// WTA result of one vector of pixels.
+struct WtaState {
+  V16 bc, bd;       // best cost (kInf: no candidate) and its disparity
+  V16 cm1, cp1;     // costs at bd - 1 and bd + 1 (read only where both are candidates)
+  V16 sec;          // smallest cost outside bd - 1 .. bd + 1 (kInf: none)
+  V16 pmin, pmin2;  // chunked pass only: smallest cost up to d - 1 and up to d - 2
+  V16 prev;         // chunked pass only: cost at d - 1
+};
+
+// Per-lane candidate test as one unsigned compare: d is a candidate of the lane iff
+// (d - F) mod 2^16 <= wid, wid = L - F. Empty lanes (F = INT16_MAX > L) get wid = 0, which
+// only d = INT16_MAX could pass; disparities stay far below (Q4 output limits them to 2047).
+HWY_INLINE hn::Vec<hn::RebindToUnsigned<D16>> CandidateWidth(V16 f, V16 l) {
+  const hn::RebindToUnsigned<D16> du16;
+  return hn::BitCast(du16, hn::IfThenZeroElse(hn::Gt(f, l), hn::Sub(l, f)));
+}
+
+// Best cost and disparity over candidates dlo..dhi (all in the band), ties to the smaller d:
+// a strict "<" while d increases. rel = d - F runs along with d, so the candidate test is a
+// single compare. The loop-carried chains are one instruction long (bc through a min, the
+// others through one select each), so consecutive candidates overlap. With kSubpixel the costs
+// beside the winner come along: cm1 is the cost one step before a new best, cp1 the cost one
+// step after the current best (both only read where bd - 1 and bd + 1 are candidates).
+template <bool kSubpixel>
+HWY_INLINE void WtaBest(const std::int16_t* col, int c0, int dlo, int dhi, V16 f, V16 l, WtaState& st) {
+  const D16 d16;
+  const hn::RebindToUnsigned<D16> du16;
+  const auto wid = CandidateWidth(f, l);
+  const V16 one = hn::Set(d16, 1);
+  const V16 inf = hn::Set(d16, kInf);
+  V16 rel = hn::Sub(hn::Set(d16, static_cast<std::int16_t>(dlo)), f);
+  V16 bc = inf, brp1 = hn::Zero(d16);  // brp1: rel of the best + 1
+  V16 prev = inf, cm1 = inf, cp1 = inf;
+  for (int d = dlo; d <= dhi; ++d) {
+    const V16 c = hn::Load(d16, col + (d - c0) * kTile);
+    const V16 ce = hn::IfThenElse(hn::RebindMask(d16, hn::Gt(hn::BitCast(du16, rel), wid)), inf, c);
+    const auto better = hn::Lt(ce, bc);
+    const V16 rel_next = hn::Add(rel, one);
+    if constexpr (kSubpixel) {
+      cp1 = hn::IfThenElse(hn::Eq(rel, brp1), c, cp1);
+      cm1 = hn::IfThenElse(better, prev, cm1);
+      prev = c;
+    }
+    brp1 = hn::IfThenElse(better, rel_next, brp1);
+    bc = hn::Min(bc, ce);
+    rel = rel_next;
+  }
+  st.bc = bc;
+  st.bd = hn::Add(hn::Sub(brp1, one), f);
+  st.cm1 = cm1;
+  st.cp1 = cp1;
+}
+
+// Second best outside bd - 1 .. bd + 1 over the whole candidate interval of each lane.
+HWY_INLINE void WtaSecond(const std::int16_t* col, int c0, int dlo, int dhi, V16 f, V16 l, WtaState& st) {
+  const D16 d16;
+  const hn::RebindToUnsigned<D16> du16;
+  const auto wid = CandidateWidth(f, l);
+  const V16 one = hn::Set(d16, 1);
+  const V16 inf = hn::Set(d16, kInf);
+  const V16 bm1 = hn::Sub(st.bd, one), bp1 = hn::Add(st.bd, one);
+  V16 rel = hn::Sub(hn::Set(d16, static_cast<std::int16_t>(dlo)), f);
+  V16 dv = hn::Set(d16, static_cast<std::int16_t>(dlo));
+  V16 sec = hn::Set(d16, kInf);
+  for (int d = dlo; d <= dhi; ++d, rel = hn::Add(rel, one), dv = hn::Add(dv, one)) {
+    const V16 c = hn::Load(d16, col + (d - c0) * kTile);
+    const auto cand = hn::RebindMask(d16, hn::Not(hn::Gt(hn::BitCast(du16, rel), wid)));
+    const auto far = hn::Or(hn::Lt(dv, bm1), hn::Gt(dv, bp1));
+    sec = hn::Min(sec, hn::IfThenElse(hn::And(cand, far), c, inf));
+  }
+  st.sec = sec;
+}
+
+// The same result in one pass whose state can stop and resume between chunks of candidates.
+// Lanes that do not search d see cost kInf, which never wins and never lowers a minimum, so they
+// behave as if the candidate were skipped. When d becomes the best: cm1 is the cost just seen at
+// d - 1; the second best outside d - 1 .. d + 1 restarts as the minimum up to d - 2 (everything
+// seen so far except d - 1); cp1 is filled by the next candidate; later candidates beyond d + 1
+// lower the second best.
+template <bool kTrack, bool kUnique>
+HWY_INLINE void WtaChunkSteps(const std::int16_t* col, int c0, int dlo, int dhi, V16 f, V16 l, WtaState& st) {
+  const D16 d16;
+  const V16 inf = hn::Set(d16, kInf);
+  const V16 one = hn::Set(d16, 1);
+  V16 dv = hn::Set(d16, static_cast<std::int16_t>(dlo));
+  for (int d = dlo; d <= dhi; ++d, dv = hn::Add(dv, one)) {
+    const V16 c = hn::Load(d16, col + (d - c0) * kTile);
+    const V16 ce = hn::IfThenElse(hn::Or(hn::Lt(dv, f), hn::Gt(dv, l)), inf, c);
+    const auto better = hn::Lt(ce, st.bc);
+    if constexpr (kTrack) {
+      const auto next = hn::Eq(dv, hn::Add(st.bd, one));  // d == old best + 1
+      st.cm1 = hn::IfThenElse(better, st.prev, st.cm1);
+      st.cp1 = hn::IfThenElse(better, inf, hn::IfThenElse(next, ce, st.cp1));
+      st.prev = ce;
+      if constexpr (kUnique) {
+        st.sec = hn::IfThenElse(better, st.pmin2, hn::IfThenElse(next, st.sec, hn::Min(st.sec, ce)));
+        st.pmin2 = st.pmin;
+        st.pmin = hn::Min(st.pmin, ce);
+      }
+    }
+    st.bc = hn::Min(st.bc, ce);
+    st.bd = hn::IfThenElse(better, dv, st.bd);
+  }
+}
+
+#if HWY_TARGET == HWY_SCALAR
+// One lane: the reference's integer arithmetic directly.
+template <bool kSubpixel, bool kUnique>
+HWY_INLINE V16 Finalize(const WtaState& st, V16 f, V16 l, int uniqueness_ratio) {
+  const D16 d16;
+  const int bc = hn::GetLane(st.bc), bd = hn::GetLane(st.bd);
+  if (bc == kInf) return hn::Set(d16, kInvalid);
+  if constexpr (kUnique) {
+    const int sec = hn::GetLane(st.sec);
+    if (sec != kInf && 100 * (sec - bc) <= uniqueness_ratio * bc) return hn::Set(d16, kInvalid);
+  }
+  int q4 = 16 * bd;
+  if constexpr (kSubpixel) {
+    if (bd > hn::GetLane(f) && bd < hn::GetLane(l))
+      q4 += subpixel_offset_q4(hn::GetLane(st.cm1), bc, hn::GetLane(st.cp1));
+  }
+  return hn::Set(d16, static_cast<std::int16_t>(q4));
+}
+#else
+// Q4 disparities of one vector of pixels, as the reference computes them. The parts that need
+// more than 16 bits run on the two halves promoted to int32.
+template <bool kSubpixel, bool kUnique>
+HWY_INLINE V16 Finalize(const WtaState& st, V16 f, V16 l, int uniqueness_ratio) {
+  const D16 d16;
+  const V16 inf = hn::Set(d16, kInf);
+  // 16 * d wraps in int16 exactly like the reference's cast (|d| < 2048 in practice anyway).
+  V16 q4 = hn::ShiftLeft<4>(st.bd);
+  auto invalid = hn::Eq(st.bc, inf);
+  if constexpr (kSubpixel || kUnique) {
+    const hn::Half<D16> dh;
+    const hn::Repartition<std::int32_t, D16> d32;
+    const hn::Rebind<float, decltype(d32)> df;
+    const auto lower = [&](V16 v) { return hn::PromoteTo(d32, hn::LowerHalf(dh, v)); };
+    const auto upper = [&](V16 v) { return hn::PromoteTo(d32, hn::UpperHalf(dh, v)); };
+    const auto narrow = [&](hn::Vec<decltype(d32)> hi, hn::Vec<decltype(d32)> lo) {
+      return hn::Combine(d16, hn::DemoteTo(dh, hi), hn::DemoteTo(dh, lo));
+    };
+    if constexpr (kSubpixel) {
+      // subpixel_offset_q4 with e = c0 - 2 c1 + c2 > 0: q = floor((16 |c0 - c2| + e) / (2 e)),
+      // 0 <= q <= 8. e and |c0 - c2| fit int16 (<= 12960 and 6480); lanes that are not ok may
+      // wrap, and whatever they compute is masked below. In float the operands are exact
+      // (< 2^18) and the quotient is at most 8.5 (|c0 - c2| <= e); when it is not an integer it
+      // lies at least 1 / (2 e) > 2^-15 below the next one, far more than the rounding error of
+      // the division (<= 2^-21 there), so truncating the float quotient gives q. (Checked for
+      // every pair 0 <= |c0 - c2| <= e <= 12960 as well.)
+      const auto ok = hn::And(hn::Gt(st.bd, f), hn::Lt(st.bd, l));
+      const V16 e = hn::Add(hn::Sub(st.cm1, hn::ShiftLeft<1>(st.bc)), st.cp1);
+      const V16 ad = hn::Abs(hn::Sub(st.cm1, st.cp1));
+      const auto offset = [&](hn::Vec<decltype(d32)> ad32, hn::Vec<decltype(d32)> e32) {
+        const auto num = hn::ConvertTo(df, hn::Add(hn::ShiftLeft<4>(ad32), e32));
+        const auto den = hn::ConvertTo(df, hn::ShiftLeft<1>(e32));
+        return hn::ConvertTo(d32, hn::Div(num, den));
+      };
+      const V16 q = narrow(offset(upper(ad), upper(e)), offset(lower(ad), lower(e)));
+      const V16 signed_q = hn::IfThenElse(hn::Lt(st.cm1, st.cp1), hn::Neg(q), q);
+      q4 = hn::Add(q4, hn::IfThenElseZero(ok, signed_q));
+    }
+    if constexpr (kUnique) {
+      // 100 (sec - bc) <= ratio bc  <=>  100 sec <= (100 + ratio) bc.
+      const auto k100 = hn::Set(d32, 100), kr = hn::Set(d32, 100 + uniqueness_ratio);
+      const auto fails = [&](hn::Vec<decltype(d32)> sec, hn::Vec<decltype(d32)> bc) {
+        return hn::VecFromMask(d32, hn::Not(hn::Gt(hn::Mul(k100, sec), hn::Mul(kr, bc))));
+      };
+      const V16 fail = narrow(fails(upper(st.sec), upper(st.bc)), fails(lower(st.sec), lower(st.bc)));
+      invalid = hn::Or(invalid, hn::And(hn::MaskFromVec(fail), hn::Lt(st.sec, inf)));
+    }
+  }
+  return hn::IfThenElse(invalid, hn::Set(d16, kInvalid), q4);
+}
+#endif
+
+// WTA over band candidates c0..c1 for every pixel of the tile. With the whole union in the band
+// (first && last), a pass for the winner and, for uniqueness, a second pass for the second best.
+// Otherwise the one-pass state is carried from chunk to chunk. The state of every pixel goes
+// through the scratch either way, and the disparities are formed in a pass of their own once the
+// last candidate is seen: kept apart from the candidate loops, whose trip counts vary, the
+// arithmetic of many pixels overlaps.
+template <bool kSubpixel, bool kUnique>
+void WtaTile(const MatchJob& job, const TileBounds& tb, int x0, int y0, int tw, int th,
+             const std::int16_t* band, int kc, int c0, int c1, bool first, bool last,
+             std::int16_t* state) {
+  constexpr bool kTrack = kSubpixel || kUnique;
+  const D16 d16;
+  const int N16 = static_cast<int>(hn::Lanes(d16));
+  const V16 inf = hn::Set(d16, kInf);
+  const bool whole = first && last;
+  for (int r = 0; r < th; ++r) {
+    for (int x = 0, v = 0; x < tw; x += N16, ++v) {
+      const V16 f = hn::Load(d16, tb.F[r] + x), l = hn::Load(d16, tb.L[r] + x);
+      const std::int16_t* col = band + r * kc * kTile + x;
+      std::int16_t* sp = state + (r * kTile + x) * kStateWords;
+      WtaState st;
+      if (first) {
+        st.bc = st.cm1 = st.cp1 = st.sec = st.pmin = st.pmin2 = st.prev = inf;
+        st.bd = hn::Zero(d16);
+      } else {
+        st.bc = hn::Load(d16, sp + 0 * N16);
+        st.bd = hn::Load(d16, sp + 1 * N16);
+        st.cm1 = hn::Load(d16, sp + 2 * N16);
+        st.cp1 = hn::Load(d16, sp + 3 * N16);
+        st.sec = hn::Load(d16, sp + 4 * N16);
+        st.pmin = hn::Load(d16, sp + 5 * N16);
+        st.pmin2 = hn::Load(d16, sp + 6 * N16);
+        st.prev = hn::Load(d16, sp + 7 * N16);
+      }
+      // Outside the row's hull every lane would see kInf. Before the hull that leaves the initial
+      // state unchanged; after it no candidate wins any more, so cm1, cp1 and sec are final.
+      // Across chunks the hull is still visited contiguously and in order.
+      const int dlo = std::max<int>(tb.row_f[r], c0), dhi = std::min<int>(tb.row_l[r], c1);
+      if (dlo <= dhi) {
+        if (whole) {
+          WtaBest<kSubpixel>(col, c0, dlo, dhi, f, l, st);
+          if constexpr (kUnique) WtaSecond(col, c0, dlo, dhi, f, l, st);
+        } else {
+          WtaChunkSteps<kTrack, kUnique>(col, c0, dlo, dhi, f, l, st);
+        }
+      }
+      // What Finalize needs, and between chunks the whole one-pass state.
+      hn::Store(st.bc, d16, sp + 0 * N16);
+      hn::Store(st.bd, d16, sp + 1 * N16);
+      if (kSubpixel || !last) {
+        hn::Store(st.cm1, d16, sp + 2 * N16);
+        hn::Store(st.cp1, d16, sp + 3 * N16);
+      }
+      if (kUnique || !last) hn::Store(st.sec, d16, sp + 4 * N16);
+      if (!last) {
+        hn::Store(st.pmin, d16, sp + 5 * N16);
+        hn::Store(st.pmin2, d16, sp + 6 * N16);
+        hn::Store(st.prev, d16, sp + 7 * N16);
+      }
+    }
+  }
+  if (!last) return;
+  const int ratio = job.config->uniqueness_ratio;
+  alignas(64) std::int16_t out[kTile];
+  for (int r = 0; r < th; ++r) {
+    for (int x = 0; x < tw; x += N16) {
+      const std::int16_t* sp = state + (r * kTile + x) * kStateWords;
+      WtaState st;
+      st.bc = hn::Load(d16, sp + 0 * N16);
+      st.bd = hn::Load(d16, sp + 1 * N16);
+      st.cm1 = kSubpixel ? hn::Load(d16, sp + 2 * N16) : inf;
+      st.cp1 = kSubpixel ? hn::Load(d16, sp + 3 * N16) : inf;
+      st.sec = kUnique ? hn::Load(d16, sp + 4 * N16) : inf;
+      const V16 f = hn::Load(d16, tb.F[r] + x), l = hn::Load(d16, tb.L[r] + x);
+      hn::Store(Finalize<kSubpixel, kUnique>(st, f, l, ratio), d16, out + x);
+    }
+    std::memcpy(job.disparity->row(y0 + r) + x0, out, tw * sizeof(std::int16_t));
+  }
+}
+
+void MatchTile(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t bytes) {
+  const D16 d16;
+  const int N16 = static_cast<int>(hn::Lanes(d16));
+  const int w = job.ref->plane[0].width(), h = job.ref->plane[0].height();
+  const int dir = job.config->dir;
+  const int x0 = (tile % job.tiles_x) * job.tile_w, y0 = (tile / job.tiles_x) * kRows;
+  const int tw = std::min(job.tile_w, w - x0), th = std::min(kRows, h - y0);
+  // 1. Bounds. Columns past the tile get the empty interval through vlo/vhi.
+  TileBounds tb;
+  alignas(64) std::int16_t vlo[kTile], vhi[kTile];
+  for (int x = 0; x < kTile; ++x) {
+    if (x < tw) {
+      const int X = x0 + x;
+      // Candidates with 0 <= X + dir d < w (clamping to int16 cannot change max(lo, .) / min(hi, .)).
+      const int a = dir < 0 ? X - w + 1 : -X, b = dir < 0 ? X : w - 1 - X;
+      vlo[x] = static_cast<std::int16_t>(std::clamp(a, INT16_MIN, INT16_MAX));
+      vhi[x] = static_cast<std::int16_t>(std::clamp(b, INT16_MIN, INT16_MAX));
+    } else {
+      vlo[x] = INT16_MAX;
+      vhi[x] = INT16_MIN;
+    }
+  }
+  const V16 vmax = hn::Set(d16, INT16_MAX), vmin = hn::Set(d16, INT16_MIN);
+  for (int x = 0; x < kTile; x += N16) {
+    hn::Store(vmax, d16, tb.col_f + x);
+    hn::Store(vmin, d16, tb.col_l + x);
+  }
+  int umin = INT16_MAX, umax = INT16_MIN;
+  for (int r = 0; r < th; ++r) {
+    // Loads reach at most N16 - 1 <= 31 values past the row's last pixel: inside its 64-byte slack.
+    const std::int16_t* lr = job.lo->row(y0 + r) + x0;
+    const std::int16_t* hr = job.hi->row(y0 + r) + x0;
+    V16 acc_f = vmax, acc_l = vmin;
+    for (int x = 0; x < tw; x += N16) {
+      V16 f = hn::Max(hn::LoadU(d16, lr + x), hn::Load(d16, vlo + x));
+      V16 l = hn::Min(hn::LoadU(d16, hr + x), hn::Load(d16, vhi + x));
+      const auto empty = hn::Gt(f, l);
+      f = hn::IfThenElse(empty, vmax, f);
+      l = hn::IfThenElse(empty, vmin, l);
+      hn::Store(f, d16, tb.F[r] + x);
+      hn::Store(l, d16, tb.L[r] + x);
+      hn::Store(hn::Min(hn::Load(d16, tb.col_f + x), f), d16, tb.col_f + x);
+      hn::Store(hn::Max(hn::Load(d16, tb.col_l + x), l), d16, tb.col_l + x);
+      acc_f = hn::Min(acc_f, f);
+      acc_l = hn::Max(acc_l, l);
+    }
+    const int rf = hn::GetLane(hn::MinOfLanes(d16, acc_f)), rl = hn::GetLane(hn::MaxOfLanes(d16, acc_l));
+    tb.row_f[r] = static_cast<std::int16_t>(rf);
+    tb.row_l[r] = static_cast<std::int16_t>(rl);
+    umin = std::min(umin, rf);
+    umax = std::max(umax, rl);
+  }
+  if (umin > umax) {  // no pixel of the tile has a candidate
+    for (int r = 0; r < th; ++r) std::fill_n(job.disparity->row(y0 + r) + x0, tw, kInvalid);
+    return;
+  }
+
+  // 2 + 3, chunk by chunk.
+  std::int16_t* vrows = reinterpret_cast<std::int16_t*>(mem);
+  std::int16_t* ring = reinterpret_cast<std::int16_t*>(mem + kVRowsBytes);
+  std::int16_t* state = reinterpret_cast<std::int16_t*>(mem + kVRowsBytes + kRingBytes);
+  std::int16_t* band = reinterpret_cast<std::int16_t*>(mem + kFixedBytes);
+  const int cap = static_cast<int>((bytes - kFixedBytes) / (kRows * kTile * sizeof(std::int16_t)));
+  const int kc = std::min(umax - umin + 1, cap);
+  const int words = job.ref->words;
+  const int a = job.config->shd_window;
+  const CostFn cost = words == 1 ? CostFor<1>(a) : words == 2 ? CostFor<2>(a) : CostFor<3>(a);
+  TileRows tr;
+  tr.x0 = x0;
+  for (int t = 0; t < th + 8; ++t) {
+    const int y = clamp_index(y0 + t - 4, h);
+    for (int k = 0; k < words; ++k) {
+      tr.ref[k][t] = job.ref->plane[k].row(y);
+      tr.other[k][t] = job.other->plane[k].row(y);
+    }
+  }
+  const bool sub = job.config->subpixel, uniq = job.config->uniqueness_ratio > 0;
+  for (int c0 = umin; c0 <= umax; c0 += kc) {
+    const int c1 = std::min(umax, c0 + kc - 1);
+    for (int d = c0; d <= c1; ++d) {
+      // The columns and rows whose hulls contain d (a rectangle that may include pixels which do
+      // not search d: their costs are computed and never read).
+      const V16 dv = hn::Set(d16, static_cast<std::int16_t>(d));
+      int xa = kTile, xb = 0;
+      for (int x = 0; x < tw; x += N16) {
+        const auto m = hn::Not(hn::Or(hn::Gt(hn::Load(d16, tb.col_f + x), dv),
+                                      hn::Lt(hn::Load(d16, tb.col_l + x), dv)));
+        std::uint8_t bits[8] = {};
+        hn::StoreMaskBits(d16, m, bits);
+        std::uint64_t b = 0;
+        std::memcpy(&b, bits, sizeof b);
+        if (b == 0) continue;
+        xa = std::min(xa, x + std::countr_zero(b));
+        xb = x + 64 - std::countl_zero(b);
+      }
+      if (xa >= xb) continue;
+      int ya = 0, yb = th;
+      while (ya < th && !(tb.row_f[ya] <= d && d <= tb.row_l[ya])) ++ya;
+      while (yb > ya && !(tb.row_f[yb - 1] <= d && d <= tb.row_l[yb - 1])) --yb;
+      if (ya >= yb) continue;
+      cost(tr, dir * d, d, xa, xb, ya, yb, band, kc, c0, vrows, ring);
+    }
+    const bool first = c0 == umin, last = c1 == umax;
+    if (sub && uniq) WtaTile<true, true>(job, tb, x0, y0, tw, th, band, kc, c0, c1, first, last, state);
+    else if (sub) WtaTile<true, false>(job, tb, x0, y0, tw, th, band, kc, c0, c1, first, last, state);
+    else if (uniq) WtaTile<false, true>(job, tb, x0, y0, tw, th, band, kc, c0, c1, first, last, state);
+    else WtaTile<false, false>(job, tb, x0, y0, tw, th, band, kc, c0, c1, first, last, state);
+  }
+}
+
+}  // namespace mctstereo::detail::cpu::HWY_NAMESPACE
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace mctstereo::detail::cpu {
+
+HWY_EXPORT(MatchTile);
+
+// Per thread: the V rows, the ring and the WTA state of one tile, and a band of up to kMaxChunk
+// candidates for the tile. Independent of the image size.
+std::size_t match_scratch_bytes(int /*width*/, int max_range, int /*shd_window*/) {
+  using namespace match_layout;
+  const int chunk = std::clamp(max_range, 1, kMaxChunk);
+  // + kAlignment: match() aligns each thread's slice itself.
+  return kFixedBytes + static_cast<std::size_t>(chunk) * kBandBytesPerCandidate + kAlignment;
+}
+
+void match(const CensusCodes& ref, const CensusCodes& other, const Plane<std::int16_t>& lo,
+           const Plane<std::int16_t>& hi, const MatchConfig& config, MatchScratch& scratch,
+           Plane<std::int16_t>& disparity) {
+  using namespace match_layout;
+  const int w = ref.plane[0].width(), h = ref.plane[0].height();
+  if (w <= 0 || h <= 0) return;
+  // Tiles kTile - (a - 1) pixels wide: with the window margins a full-width row of Hamming costs
+  // is then exactly kTile columns, a whole number of vectors.
+  const int tile_w = kTile - 2 * (config.shd_window / 2);
+  const MatchJob job{&ref, &other, &lo, &hi, &config, &disparity, tile_w, (w + tile_w - 1) / tile_w};
+  const int tiles = job.tiles_x * ((h + kRows - 1) / kRows);
+  const int threads = std::max(1, std::min(scratch.threads, omp_get_max_threads()));
+  // Each thread's slice starts at the next 64-byte boundary (the aligned loads need it) and must
+  // still hold the fixed buffers and one candidate's band: less is a driver bug, not an input.
+  const std::size_t usable = scratch.bytes_per_thread < kAlignment ? 0 : scratch.bytes_per_thread - (kAlignment - 1);
+  if (usable < kFixedBytes + kBandBytesPerCandidate) std::abort();
+  // Tiles differ in cost (range widths vary with the prior), hence the dynamic schedule; every
+  // tile writes only its own pixels, so the result does not depend on the thread count.
+#pragma omp parallel for schedule(dynamic) num_threads(threads)
+  for (int t = 0; t < tiles; ++t) {
+    std::uint8_t* base = scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread;
+    const auto aligned = (reinterpret_cast<std::uintptr_t>(base) + kAlignment - 1) / kAlignment * kAlignment;
+    HWY_DYNAMIC_DISPATCH(MatchTile)(job, t, reinterpret_cast<std::uint8_t*>(aligned), usable);
+  }
+}
+
+}  // namespace mctstereo::detail::cpu
+#endif  // HWY_ONCE
