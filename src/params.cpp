@@ -45,7 +45,7 @@ StereoParams make_quality() {
   p.census_window = 5;
   p.shd_window = 5;
   p.pyramid_levels = 1;
-  p.median_size = 3;
+  p.median_size = 5;
   p.post_median_size = 5;
   p.lr_check = true;
   p.speckle_size = 100;
@@ -88,7 +88,7 @@ constexpr PresetEntry kPresets[] = {
      make_realtime},
     {"balanced", "CT 5x5, 3 levels, search radius 3, median 3, LR check, speckle removal, median after filling: the default",
      make_balanced},
-    {"quality", "CT 5x5, one level with the full search, median 3, LR check, speckle removal, median 5 after filling: the best maps",
+    {"quality", "CT 5x5, one level with the full search, median 5, LR check, speckle removal, median 5 after filling: the best maps",
      make_quality},
     {"mct-full", "thesis MCT-full: MCT 9x9 (Gaussian mean), one level with the full search", make_mct_full},
     {"mr-mct-full", "thesis MR-MCT-full: MCT 9x9 (Gaussian mean), 3 levels, search radius 4", make_mr_mct_full},

@@ -34,9 +34,10 @@ std::map<std::string, std::string> read_scene_txt(const fs::path& file) {
 // Bad pixels (|d - gt| > 1, invalid counted as bad) in the nonocc, all and disc (== 255) masks.
 Scores score_scene(const fs::path& dir, const std::string& preset_name) {
   auto kv = read_scene_txt(dir / "scene.txt");
-  // IMREAD_GRAYSCALE expands palette PNGs to their gray values.
-  const cv::Mat left = cv::imread((dir / kv["left"]).string(), cv::IMREAD_GRAYSCALE);
-  const cv::Mat right = cv::imread((dir / kv["right"]).string(), cv::IMREAD_GRAYSCALE);
+  // The views go in as colour, converted by the library, exactly as `mctstereo eval` does;
+  // IMREAD_GRAYSCALE expands the palette PNGs (ground truth, masks) to their gray values.
+  const cv::Mat left = cv::imread((dir / kv["left"]).string(), cv::IMREAD_COLOR);
+  const cv::Mat right = cv::imread((dir / kv["right"]).string(), cv::IMREAD_COLOR);
   const cv::Mat gt = cv::imread((dir / kv["gt"]).string(), cv::IMREAD_GRAYSCALE);
   const cv::Mat masks[3] = {cv::imread((dir / "nonocc.png").string(), cv::IMREAD_GRAYSCALE),
                             cv::imread((dir / "all.png").string(), cv::IMREAD_GRAYSCALE),
@@ -49,8 +50,8 @@ Scores score_scene(const fs::path& dir, const std::string& preset_name) {
   p.min_disparity = 0;
   p.num_disparities = std::stoi(kv["max_disp"]) + 1;
   Matcher m(left.cols, left.rows, p);
-  m.compute({left.data, left.cols, left.rows, static_cast<std::ptrdiff_t>(left.step), PixelFormat::Gray8},
-            {right.data, right.cols, right.rows, static_cast<std::ptrdiff_t>(right.step), PixelFormat::Gray8});
+  m.compute({left.data, left.cols, left.rows, static_cast<std::ptrdiff_t>(left.step), PixelFormat::Bgr8},
+            {right.data, right.cols, right.rows, static_cast<std::ptrdiff_t>(right.step), PixelFormat::Bgr8});
   double out[3];
   for (int k = 0; k < 3; ++k) {
     long n = 0, bad = 0;
