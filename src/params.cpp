@@ -24,9 +24,11 @@ StereoParams make_realtime() {
   p.census = CensusKind::Census;
   p.census_window = 5;
   p.shd_window = 5;
-  p.coarse_shd_window = 3;
+  // A 5x5 window at the coarse levels gives cleaner priors, hence narrower searches at the finest
+  // level: faster overall than a 3x3 one, and radius 1 then loses nothing on Middlebury.
+  p.coarse_shd_window = 5;
   p.pyramid_levels = 3;
-  p.search_radius = 2;
+  p.search_radius = 1;
   p.subpixel = true;
   p.median_size = 3;
   p.lr_check = true;
@@ -84,7 +86,7 @@ StereoParams make_mr_mct_5x5() {
 }
 
 constexpr PresetEntry kPresets[] = {
-    {"realtime", "CT 5x5, 3 levels, search radius 2, median 3 and LR check at the finest level: the fastest preset, for robots and AR",
+    {"realtime", "CT 5x5, 3 levels, search radius 1, median 3 and LR check at the finest level: the fastest preset, for robots and AR",
      make_realtime},
     {"balanced", "CT 5x5, 3 levels, search radius 3, median 3, LR check, speckle removal, median after filling: the default",
      make_balanced},
