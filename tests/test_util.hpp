@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 #include <hwy/targets.h>
+#include <omp.h>
 
 #include <cstdint>
 #include <functional>
@@ -82,6 +83,19 @@ inline void for_each_simd_target(const std::function<void(const std::string&)>& 
     fn(hwy::TargetName(target));
   }
   hwy::SetSupportedTargetsForTest(0);
+}
+
+/// Runs fn on every SIMD target (as for_each_simd_target) with 1 and then 2 OpenMP threads;
+/// fn receives "TARGET, N thread(s)" for its messages.
+inline void for_each_target_and_threads(const std::function<void(const std::string&)>& fn) {
+  const int saved = omp_get_max_threads();
+  for_each_simd_target([&](const std::string& target) {
+    for (int threads : {1, 2}) {
+      omp_set_num_threads(threads);
+      fn(target + ", " + std::to_string(threads) + " thread(s)");
+    }
+  });
+  omp_set_num_threads(saved);
 }
 
 /// Awkward sizes every stage test runs: odd, tiny, one column, one row, around vector widths.

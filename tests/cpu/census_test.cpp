@@ -11,17 +11,6 @@ using detail::CensusCodes;
 using detail::CensusConfig;
 using detail::kCodePad;
 
-void for_each_target_and_threads(const std::function<void(const std::string&)>& fn) {
-  const int saved = omp_get_max_threads();
-  for_each_simd_target([&](const std::string& target) {
-    for (int threads : {1, 2}) {
-      omp_set_num_threads(threads);
-      fn(target + ", " + std::to_string(threads) + " thread(s)");
-    }
-  });
-  omp_set_num_threads(saved);
-}
-
 CensusCodes make_codes(int w, int h, int window) {
   CensusCodes codes;
   codes.words = detail::census_words(window);

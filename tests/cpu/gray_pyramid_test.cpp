@@ -8,17 +8,6 @@ namespace mctstereo::test {
 namespace {
 
 // Runs fn on every SIMD target with 1 and 2 OpenMP threads; fn gets a label for failure messages.
-void for_each_target_and_threads(const std::function<void(const std::string&)>& fn) {
-  const int saved = omp_get_max_threads();
-  for_each_simd_target([&](const std::string& target) {
-    for (int threads : {1, 2}) {
-      omp_set_num_threads(threads);
-      fn(target + ", " + std::to_string(threads) + " thread(s)");
-    }
-  });
-  omp_set_num_threads(saved);
-}
-
 // An interleaved input image of seeded random bytes whose rows are `extra` bytes longer than the
 // pixels. The buffer ends right after the last pixel, as a caller's image may.
 struct RandomInput {

@@ -55,18 +55,6 @@ SpeckleScratch make_scratch(int w, int h) {
 }
 
 // Runs fn for every SIMD target and for 1 and 2 OpenMP threads.
-template <typename Fn>
-void for_each_target_and_threads(Fn fn) {
-  const int saved = omp_get_max_threads();
-  for_each_simd_target([&](const std::string& target) {
-    for (int threads : {1, 2}) {
-      omp_set_num_threads(threads);
-      fn(target + ", " + std::to_string(threads) + " thread(s)");
-    }
-  });
-  omp_set_num_threads(saved);
-}
-
 // The map kinds the comparisons run on: (invalid fraction, whole pixels or fractional Q4).
 struct MapKind {
   double invalid;

@@ -9,17 +9,6 @@ namespace {
 
 using detail::kInvalid;
 
-void for_each_target_and_threads(const std::function<void(const std::string&)>& fn) {
-  const int saved = omp_get_max_threads();
-  for_each_simd_target([&](const std::string& target) {
-    for (int threads : {1, 2}) {
-      omp_set_num_threads(threads);
-      fn(target + ", " + std::to_string(threads) + " thread(s)");
-    }
-  });
-  omp_set_num_threads(saved);
-}
-
 struct Ranges {
   Plane<std::int16_t> lo, hi;
   Ranges(int w, int h, int pad) : lo(w, h, pad), hi(w, h, pad) {}

@@ -8,17 +8,6 @@ namespace {
 
 using detail::kInvalid;
 
-void for_each_target_and_threads(const std::function<void(const std::string&)>& fn) {
-  const int saved = omp_get_max_threads();
-  for_each_simd_target([&](const std::string& target) {
-    for (int threads : {1, 2}) {
-      omp_set_num_threads(threads);
-      fn(target + ", " + std::to_string(threads) + " thread(s)");
-    }
-  });
-  omp_set_num_threads(saved);
-}
-
 TEST(CpuUpscale, EqualsReferenceAtAwkwardSizes) {
   std::uint32_t seed = 3;
   for (int factor : {2, 4, 1, 3}) {
