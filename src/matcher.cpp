@@ -227,7 +227,14 @@ struct Matcher::Impl {
         throw std::invalid_argument(std::string(name) + " image stride " + std::to_string(in.stride) +
                                     " is shorter than a row");
     }
-    if (backend == Backend::Cpu) omp_set_num_threads(threads);
+    // The stages' parallel regions take the calling thread's OpenMP thread count: set it for this
+    // frame and give the caller's setting back afterwards.
+    const int caller_threads = omp_get_max_threads();
+    struct RestoreThreads {
+      int n;
+      ~RestoreThreads() { omp_set_num_threads(n); }
+    } restore{caller_threads};
+    omp_set_num_threads(backend == Backend::Cpu ? threads : 1);
     for (double& t : slot_ms) t = 0;
     Stopwatch frame, clock;
     frame.start();
