@@ -14,24 +14,15 @@
 #include <cstdint>
 #include <cstring>
 
+#include "cpu/mask_bits-inl.h"
 #include "stages.hpp"
 
 HWY_BEFORE_NAMESPACE();
 namespace mctstereo::detail::cpu::HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
-using D16 = hn::CappedTag<std::int16_t, 32>;  // at most one 32-bit mask word per vector
+using D16 = MaskTag16;  // at most one 32-bit mask word per vector
 using DShort = hn::CappedTag<std::int16_t, 8>;  // writes the short runs
-
-HWY_INLINE std::uint32_t MaskBits(hn::Mask<D16> m) {
-  const D16 d;
-  std::uint8_t bytes[8] = {};
-  hn::StoreMaskBits(d, m, bytes);
-  std::uint32_t bits;
-  std::memcpy(&bits, bytes, sizeof(bits));
-  const std::size_t n = hn::Lanes(d);
-  return n >= 32 ? bits : bits & ((1u << n) - 1);
-}
 
 // Fills the invalid run [s, e) of a row w wide.
 HWY_INLINE void FillRun(std::int16_t* row, int s, int e, int w, FillMode mode) {

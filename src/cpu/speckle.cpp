@@ -25,6 +25,7 @@
 
 #include <omp.h>
 
+#include "cpu/mask_bits-inl.h"
 #include "stages.hpp"
 
 HWY_BEFORE_NAMESPACE();
@@ -32,23 +33,13 @@ namespace mctstereo::detail::cpu::HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
 // Mask words are 32 bits wide, so vectors hold at most 32 lanes and each fills part of one word.
-using D16 = hn::CappedTag<std::int16_t, 32>;
+using D16 = MaskTag16;
 
 // Lanes where |a - b| <= max_diff. max(a, b) - min(a, b) wraps in int16 but is exact as uint16.
 HWY_INLINE hn::Mask<D16> Close(hn::Vec<D16> a, hn::Vec<D16> b, hn::Vec<hn::RebindToUnsigned<D16>> max_diff) {
   const hn::RebindToUnsigned<D16> du;
   const auto diff = hn::BitCast(du, hn::Sub(hn::Max(a, b), hn::Min(a, b)));
   return hn::RebindMask(D16(), hn::Eq(hn::SaturatedSub(diff, max_diff), hn::Zero(du)));
-}
-
-HWY_INLINE std::uint32_t MaskBits(hn::Mask<D16> m) {
-  const D16 d;
-  std::uint8_t bytes[8] = {};
-  hn::StoreMaskBits(d, m, bytes);
-  std::uint32_t bits;
-  std::memcpy(&bits, bytes, sizeof(bits));
-  const std::size_t n = hn::Lanes(d);
-  return n >= 32 ? bits : bits & ((1u << n) - 1);
 }
 
 // Writes the three masks of rows [y0, y1) into the label plane (see the top of the file).
