@@ -330,11 +330,8 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   // Mirrors the allocations of Matcher::Impl without making them.
   const std::string err = params.validate(width, height);
   if (!err.empty()) throw std::invalid_argument(err);
-  auto plane_bytes = [](int w, int h, int pad, std::size_t elem) {
-    const std::size_t per_line = detail::kAlignment / elem;
-    const std::size_t need = static_cast<std::size_t>(w + 2 * pad) + per_line;
-    return (need + per_line - 1) / per_line * per_line * std::max(h, 1) * elem;
-  };
+  const auto gray_bytes = [](int w, int h) { return Plane<std::uint8_t>::bytes_for(w, h); };
+  const auto map_bytes = [](int w, int h) { return Plane<std::int16_t>::bytes_for(w, h); };
   const bool need_right = params.lr_check || options.compute_right;
   const int views = need_right ? 2 : 1;
   const int scale_steps = log2_exact(params.working_scale);
@@ -342,14 +339,14 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   std::size_t total = 0;
   int lw = width, lh = height;
   for (int s = 0; s <= scale_steps; ++s) {
-    total += 2 * plane_bytes(lw, lh, 0, 1);
+    total += 2 * gray_bytes(lw, lh);
     if (s < scale_steps) lw = (lw + 1) / 2, lh = (lh + 1) / 2;
   }
   int max_range = 1, w0 = lw, h0 = lh;
   for (int l = 0; l < params.pyramid_levels; ++l) {
-    if (l > 0) total += 2 * plane_bytes(lw, lh, 0, 1);
-    total += 2 * words * plane_bytes(lw, lh, detail::kCodePad, 4);
-    total += views * 4 * plane_bytes(lw, lh, 0, 2);
+    if (l > 0) total += 2 * gray_bytes(lw, lh);
+    total += 2 * words * Plane<std::uint32_t>::bytes_for(lw, lh, detail::kCodePad);
+    total += views * 4 * map_bytes(lw, lh);
     const int ls = scale_steps + l;
     max_range = std::max(max_range, detail::level_max(params.max_disparity(), ls) -
                                         detail::level_min(params.min_disparity, ls) + 1);
@@ -358,9 +355,9 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   }
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
   total += threads * detail::cpu::match_scratch_bytes(w0, max_range, std::max(params.shd_window, params.coarse_shd_window));
-  if (params.speckle_size > 0) total += plane_bytes(w0, h0, 0, 4) + static_cast<std::size_t>(w0) * h0 * 4;
+  if (params.speckle_size > 0) total += Plane<std::int32_t>::bytes_for(w0, h0) + static_cast<std::size_t>(w0) * h0 * 4;
   const int outputs = options.compute_right ? 2 : 1;
-  total += outputs * plane_bytes(width, height, 0, 2) * (scale_steps > 0 ? 2 : 1) + plane_bytes(width, height, 0, 4);
+  total += outputs * map_bytes(width, height) * (scale_steps > 0 ? 2 : 1) + Plane<float>::bytes_for(width, height);
   return total;
 }
 

@@ -39,10 +39,20 @@ class Plane {
     width_ = width;
     height_ = height;
     pad_ = pad;
-    const std::size_t per_line = kAlignment / sizeof(T);
-    std::size_t need = static_cast<std::size_t>(width + 2 * pad) + per_line;  // + slack
-    stride_ = static_cast<std::ptrdiff_t>((need + per_line - 1) / per_line * per_line);
+    stride_ = stride_for(width, pad);
     data_ = allocate_aligned<T>(static_cast<std::size_t>(stride_) * std::max(height, 1));
+  }
+
+  /// The stride of a row of `width` pixels and `pad` columns each side: rounded up to whole
+  /// 64-byte lines, with at least one line of slack.
+  static std::ptrdiff_t stride_for(int width, int pad) {
+    const std::size_t per_line = kAlignment / sizeof(T);
+    const std::size_t need = static_cast<std::size_t>(width + 2 * pad) + per_line;  // + slack
+    return static_cast<std::ptrdiff_t>((need + per_line - 1) / per_line * per_line);
+  }
+  /// Bytes that reset(width, height, pad) allocates.
+  static std::size_t bytes_for(int width, int height, int pad = 0) {
+    return static_cast<std::size_t>(stride_for(width, pad)) * std::max(height, 1) * sizeof(T);
   }
 
   int width() const { return width_; }
