@@ -24,7 +24,6 @@ struct StageTable {
   decltype(&detail::reference::to_gray) to_gray;
   decltype(&detail::reference::pyramid_down) pyramid_down;
   decltype(&detail::reference::census_transform) census_transform;
-  decltype(&detail::reference::search_ranges) search_ranges;
   decltype(&detail::reference::match) match;
   decltype(&detail::reference::match_scratch_bytes) match_scratch_bytes;
   decltype(&detail::reference::median_filter) median_filter;
@@ -36,7 +35,7 @@ struct StageTable {
 
 #define MCTSTEREO_STAGE_TABLE(ns)                                                                \
   StageTable {                                                                                   \
-    &ns::to_gray, &ns::pyramid_down, &ns::census_transform, &ns::search_ranges, &ns::match,      \
+    &ns::to_gray, &ns::pyramid_down, &ns::census_transform, &ns::match,                          \
         &ns::match_scratch_bytes, &ns::median_filter, &ns::lr_check, &ns::remove_speckles,       \
         &ns::fill_invalid, &ns::upscale                                                          \
   }
@@ -59,7 +58,7 @@ struct Level {
   bool refine = true;
   Plane<std::uint8_t> image[2];
   CensusCodes codes[2];
-  Plane<std::int16_t> lo[2], hi[2], disparity[2], scratch[2];
+  Plane<std::int16_t> disparity[2], scratch[2];
 };
 
 class Stopwatch {
@@ -137,8 +136,6 @@ struct Matcher::Impl {
         for (int k = 0; k < L.codes[v].words; ++k) L.codes[v].plane[k].reset(lw, lh, detail::kCodePad);
       }
       for (int v = 0; v < views; ++v) {
-        L.lo[v].reset(lw, lh);
-        L.hi[v].reset(lw, lh);
         L.disparity[v].reset(lw, lh);
         L.scratch[v].reset(lw, lh);
       }
@@ -258,10 +255,10 @@ struct Matcher::Impl {
       const bool coarsest = l + 1 == static_cast<int>(levels.size());
       for (int v = 0; v < views; ++v) {
         const Plane<std::int16_t>* prior = coarsest ? nullptr : &levels[l + 1].disparity[v];
-        stages->search_ranges(prior, L.dmin, L.dmax, params.search_radius, L.lo[v], L.hi[v]);
+        const auto ranges = detail::SearchRanges::around(prior, L.dmin, L.dmax, params.search_radius);
         const detail::MatchConfig match{v == 0 ? -1 : +1, L.shd_window, params.subpixel && l == 0,
                                         params.uniqueness_ratio};
-        stages->match(L.codes[v], L.codes[1 - v], L.lo[v], L.hi[v], match, match_scratch, L.disparity[v]);
+        stages->match(L.codes[v], L.codes[1 - v], ranges, match, match_scratch, L.disparity[v]);
       }
       slot_ms[kMatch] += clock.lap_ms();
       if (L.refine) refine(L, l == 0);
@@ -346,7 +343,7 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   for (int l = 0; l < params.pyramid_levels; ++l) {
     if (l > 0) total += 2 * gray_bytes(lw, lh);
     total += 2 * words * Plane<std::uint32_t>::bytes_for(lw, lh, detail::kCodePad);
-    total += views * 4 * map_bytes(lw, lh);
+    total += views * 2 * map_bytes(lw, lh);
     const int ls = scale_steps + l;
     max_range = std::max(max_range, detail::level_max(params.max_disparity(), ls) -
                                         detail::level_min(params.min_disparity, ls) + 1);

@@ -27,13 +27,15 @@ StereoParams make_realtime() {
   // A 5x5 window at the coarse levels gives cleaner priors, hence narrower searches at the finest
   // level: faster overall than a 3x3 one, and radius 1 then loses nothing on Middlebury.
   p.coarse_shd_window = 5;
-  p.pyramid_levels = 3;
+  // Four levels: the coarsest full search is then 4 times smaller than with three, and the average
+  // Middlebury score barely moves (10.85 -> 10.96 %); the median after filling buys it back.
+  p.pyramid_levels = 4;
   p.search_radius = 1;
   p.subpixel = true;
   p.median_size = 3;
   p.lr_check = true;
   p.speckle_size = 0;
-  p.post_median_size = 0;
+  p.post_median_size = 3;
   p.fill = FillMode::NearestLower;
   p.refine_all_levels = false;  // measured no worse on Middlebury than refining every level
   return p;
@@ -86,7 +88,7 @@ StereoParams make_mr_mct_5x5() {
 }
 
 constexpr PresetEntry kPresets[] = {
-    {"realtime", "CT 5x5, 3 levels, search radius 1, median 3 and LR check at the finest level: the fastest preset, for robots and AR",
+    {"realtime", "CT 5x5, 4 levels, search radius 1, median 3, LR check and median 3 after filling at the finest level: the fastest preset, for robots and AR",
      make_realtime},
     {"balanced", "CT 5x5, 3 levels, search radius 3, median 3, LR check, speckle removal, median after filling: the default",
      make_balanced},

@@ -11,6 +11,7 @@
 // - Out-of-image reads repeat the edge pixel (clamped coordinates).
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <limits>
@@ -77,6 +78,64 @@ inline int subpixel_offset_q4(int c0, int c1, int c2) {
   return num < 0 ? -q : q;
 }
 
+/// A candidate interval [lo, hi] (empty when lo > hi).
+struct Interval {
+  int lo, hi;
+};
+
+/// The search rule of the coarse-to-fine pipeline for pixel (x, y) of a level: without a prior
+/// (coarse == nullptr) the whole level range [dmin, dmax]; with one, [2 min - r, 2 max + r] of the
+/// valid coarse values in the 3x3 around (x/2, y/2) (clamped to the coarse level), clipped to
+/// [dmin, dmax]; an invalid centre prior searches the whole range.
+inline Interval search_range_at(const Plane<std::int16_t>* coarse, int dmin, int dmax, int radius, int x, int y) {
+  if (coarse == nullptr) return {dmin, dmax};
+  const int cw = coarse->width(), ch = coarse->height();
+  const int cx = std::min(x / 2, cw - 1), cy = std::min(y / 2, ch - 1);
+  if (coarse->at(cx, cy) == kInvalid) return {dmin, dmax};
+  int mn = 1 << 20, mx = -(1 << 20);
+  for (int j = -1; j <= 1; ++j) {
+    for (int i = -1; i <= 1; ++i) {
+      const int v = coarse->at(clamp_index(cx + i, cw), clamp_index(cy + j, ch));
+      if (v == kInvalid) continue;
+      mn = std::min(mn, v >> 4);  // coarse levels hold whole pixels
+      mx = std::max(mx, v >> 4);
+    }
+  }
+  // A prior just outside the level range (2 * ceil(dmax / 2) may be dmax + 1) still leaves at
+  // least one candidate.
+  return {std::min(std::max(dmin, 2 * mn - radius), dmax), std::max(std::min(dmax, 2 * mx + radius), dmin)};
+}
+
+/// The candidates match() searches at each pixel of a level: read from two planes lo and hi, or
+/// made where needed by search_range_at() around a coarse prior. The pipeline takes the second
+/// form, so that full-resolution range planes are never written and read back (at 640 x 480 that
+/// traffic cost the matching stage more than the ranges themselves).
+struct SearchRanges {
+  const Plane<std::int16_t>* lo = nullptr;  ///< explicit ranges, when both planes are set
+  const Plane<std::int16_t>* hi = nullptr;
+  const Plane<std::int16_t>* prior = nullptr;  ///< otherwise: the rule around this prior (null: no prior)
+  int dmin = 0, dmax = 0, radius = 0;
+
+  static SearchRanges planes(const Plane<std::int16_t>& lo, const Plane<std::int16_t>& hi) {
+    SearchRanges r;
+    r.lo = &lo;
+    r.hi = &hi;
+    return r;
+  }
+  static SearchRanges around(const Plane<std::int16_t>* prior, int dmin, int dmax, int radius) {
+    SearchRanges r;
+    r.prior = prior;
+    r.dmin = dmin;
+    r.dmax = dmax;
+    r.radius = radius;
+    return r;
+  }
+  bool from_planes() const { return lo != nullptr; }
+  Interval at(int x, int y) const {
+    return from_planes() ? Interval{lo->at(x, y), hi->at(x, y)} : search_range_at(prior, dmin, dmax, radius, x, y);
+  }
+};
+
 /// Level range [floor(dmin / 2^l), ceil(dmax / 2^l)].
 inline int level_min(int dmin, int l) { return dmin >> l; }  // arithmetic shift = floor
 inline int level_max(int dmax, int l) { return -((-dmax) >> l); }
@@ -93,15 +152,13 @@ inline int level_max(int dmax, int l) { return -((-dmax) >> l); }
   /* CT or MCT codes of every pixel; fills the kCodePad replicated columns. */                    \
   void census_transform(const Plane<std::uint8_t>& image, const CensusConfig& config,             \
                         CensusCodes& codes);                                                      \
-  /* Per-pixel search range [lo, hi] of a level. Without a prior (coarse == nullptr): the whole */ \
-  /* level range. With one: [2 min - r, 2 max + r] of the valid coarse values in the 3x3 around */ \
-  /* (x/2, y/2), clipped to [dmin, dmax]; an invalid centre prior searches the whole range.     */ \
+  /* Per-pixel search ranges of a level as planes: search_range_at() at every pixel. (match()   */ \
+  /* applies the same rule itself; this form serves callers that want the ranges.)              */ \
   void search_ranges(const Plane<std::int16_t>* coarse, int dmin, int dmax, int radius,           \
                      Plane<std::int16_t>& lo, Plane<std::int16_t>& hi);                            \
   /* SHD cost over each pixel's range and winner-takes-all (ties to the smaller d); output Q4. */  \
-  void match(const CensusCodes& ref, const CensusCodes& other, const Plane<std::int16_t>& lo,     \
-             const Plane<std::int16_t>& hi, const MatchConfig& config, MatchScratch& scratch,     \
-             Plane<std::int16_t>& disparity);                                                      \
+  void match(const CensusCodes& ref, const CensusCodes& other, const SearchRanges& ranges,        \
+             const MatchConfig& config, MatchScratch& scratch, Plane<std::int16_t>& disparity);    \
   /* Scratch bytes one thread of match() needs for images `width` wide and ranges up to         */ \
   /* max_range candidates.                                                                       */ \
   std::size_t match_scratch_bytes(int width, int max_range, int shd_window);                      \

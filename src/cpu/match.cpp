@@ -41,6 +41,8 @@
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
 
+#include "cpu/search_range-inl.h"
+
 #ifndef MCTSTEREO_CPU_MATCH_LAYOUT
 #define MCTSTEREO_CPU_MATCH_LAYOUT
 
@@ -87,8 +89,7 @@ namespace mctstereo::detail::cpu {
 struct MatchJob {
   const CensusCodes* ref;
   const CensusCodes* other;
-  const Plane<std::int16_t>* lo;
-  const Plane<std::int16_t>* hi;
+  const SearchRanges* ranges;
   const MatchConfig* config;
   Plane<std::int16_t>* disparity;
   int tile_w;   // pixels per tile row (<= kTile, see match())
@@ -542,11 +543,30 @@ void MatchTile(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t byt
     hn::Store(vmax, d16, tb.col_f + x);
     hn::Store(vmin, d16, tb.col_l + x);
   }
+  // The ranges of a tile row: from the range planes, or made here from the prior (one coarse row
+  // serves two tile rows), or the whole level range. Loads reach at most N16 - 1 <= 31 values past
+  // the row's last pixel: inside a plane row's 64-byte slack, or the buffers' own.
+  const SearchRanges& ranges = *job.ranges;
+  alignas(64) std::int16_t made_lo[kTile + kRangeSegmentSlack] = {}, made_hi[kTile + kRangeSegmentSlack] = {};
+  if (!ranges.from_planes() && ranges.prior == nullptr) {
+    std::fill_n(made_lo, tw, static_cast<std::int16_t>(ranges.dmin));
+    std::fill_n(made_hi, tw, static_cast<std::int16_t>(ranges.dmax));
+  }
+  int made_cy = -1;
   int umin = INT16_MAX, umax = INT16_MIN;
   for (int r = 0; r < th; ++r) {
-    // Loads reach at most N16 - 1 <= 31 values past the row's last pixel: inside its 64-byte slack.
-    const std::int16_t* lr = job.lo->row(y0 + r) + x0;
-    const std::int16_t* hr = job.hi->row(y0 + r) + x0;
+    const std::int16_t* lr = made_lo;
+    const std::int16_t* hr = made_hi;
+    if (ranges.from_planes()) {
+      lr = ranges.lo->row(y0 + r) + x0;
+      hr = ranges.hi->row(y0 + r) + x0;
+    } else if (ranges.prior != nullptr) {
+      const int cy = std::min((y0 + r) / 2, ranges.prior->height() - 1);
+      if (cy != made_cy) {
+        PriorRangeSegment(*ranges.prior, cy, x0, x0 + tw, ranges.dmin, ranges.dmax, ranges.radius, made_lo, made_hi);
+        made_cy = cy;
+      }
+    }
     V16 acc_f = vmax, acc_l = vmin;
     for (int x = 0; x < tw; x += N16) {
       V16 f = hn::Max(hn::LoadU(d16, lr + x), hn::Load(d16, vlo + x));
@@ -641,16 +661,16 @@ std::size_t match_scratch_bytes(int /*width*/, int max_range, int /*shd_window*/
   return kFixedBytes + static_cast<std::size_t>(chunk) * kBandBytesPerCandidate + kAlignment;
 }
 
-void match(const CensusCodes& ref, const CensusCodes& other, const Plane<std::int16_t>& lo,
-           const Plane<std::int16_t>& hi, const MatchConfig& config, MatchScratch& scratch,
-           Plane<std::int16_t>& disparity) {
+void match(const CensusCodes& ref, const CensusCodes& other, const SearchRanges& ranges,
+           const MatchConfig& config, MatchScratch& scratch, Plane<std::int16_t>& disparity) {
   using namespace match_layout;
   const int w = ref.plane[0].width(), h = ref.plane[0].height();
   if (w <= 0 || h <= 0) return;
   // Tiles kTile - (a - 1) pixels wide: with the window margins a full-width row of Hamming costs
-  // is then exactly kTile columns, a whole number of vectors.
+  // is then exactly kTile columns, a whole number of vectors. The width is even, as
+  // PriorRangeSegment needs of a tile's first column.
   const int tile_w = kTile - 2 * (config.shd_window / 2);
-  const MatchJob job{&ref, &other, &lo, &hi, &config, &disparity, tile_w, (w + tile_w - 1) / tile_w};
+  const MatchJob job{&ref, &other, &ranges, &config, &disparity, tile_w, (w + tile_w - 1) / tile_w};
   const int tiles = job.tiles_x * ((h + kRows - 1) / kRows);
   const int threads = std::max(1, std::min(scratch.threads, omp_get_max_threads()));
   // Each thread's slice starts at the next 64-byte boundary (the aligned loads need it) and must

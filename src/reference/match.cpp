@@ -10,16 +10,15 @@ std::size_t match_scratch_bytes(int /*width*/, int max_range, int /*shd_window*/
   return static_cast<std::size_t>(max_range) * sizeof(int);
 }
 
-void match(const CensusCodes& ref, const CensusCodes& other, const Plane<std::int16_t>& lo,
-           const Plane<std::int16_t>& hi, const MatchConfig& config, MatchScratch& scratch,
-           Plane<std::int16_t>& disparity) {
+void match(const CensusCodes& ref, const CensusCodes& other, const SearchRanges& ranges,
+           const MatchConfig& config, MatchScratch& scratch, Plane<std::int16_t>& disparity) {
   const int w = ref.plane[0].width(), h = ref.plane[0].height();
   const int hr = config.shd_window / 2;
   int* cost = reinterpret_cast<int*>(scratch.data.get());
 
   for (int y = 0; y < h; ++y) {
     for (int x = 0; x < w; ++x) {
-      const int dlo = lo.at(x, y), dhi = hi.at(x, y);
+      const auto [dlo, dhi] = ranges.at(x, y);
       // Candidates whose matching pixel x + dir * d lies in the image: a contiguous interval.
       int first = INT_MAX, last = INT_MIN;
       for (int d = dlo; d <= dhi; ++d) {

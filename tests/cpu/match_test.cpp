@@ -1,9 +1,11 @@
 // cpu::match against reference::match, bit for bit: sizes, strides, both views, SHD windows,
-// census words, full / negative / nearly image-wide / per-pixel ranges, sub-pixel, uniqueness,
-// candidate chunking, on every SIMD target and with 1 and 2 threads.
+// census words, full / negative / nearly image-wide / per-pixel ranges (given as planes and made
+// by the search rule around a prior), sub-pixel, uniqueness, candidate chunking, on every SIMD
+// target and with 1 and 2 threads.
 #include <omp.h>
 
 #include <algorithm>
+#include <optional>
 #include <random>
 
 #include "test_util.hpp"
@@ -41,14 +43,18 @@ CensusCodes census(const Plane<std::uint8_t>& image, int window, CensusKind kind
   return codes;
 }
 
+/// Per-pixel ranges as planes and, where they come from the pipeline's rule, the rule itself:
+/// match() must give the same result from either form.
 struct Ranges {
   Plane<std::int16_t> lo, hi;
+  std::optional<detail::SearchRanges> rule;
 };
 
 /// Per-pixel ranges as the pipeline makes them; `prior` null = the whole range [dmin, dmax].
 /// `pad` widens the rows (and so the stride) beyond the image.
 Ranges ranges(int w, int h, const Plane<std::int16_t>* prior, int dmin, int dmax, int radius, int pad = 0) {
-  Ranges r{Plane<std::int16_t>(w, h, pad), Plane<std::int16_t>(w, h, pad)};
+  Ranges r{Plane<std::int16_t>(w, h, pad), Plane<std::int16_t>(w, h, pad),
+           detail::SearchRanges::around(prior, dmin, dmax, radius)};
   detail::reference::search_ranges(prior, dmin, dmax, radius, r.lo, r.hi);
   return r;
 }
@@ -86,7 +92,13 @@ Stats expect_same(const CensusCodes& ref, const CensusCodes& other, const Ranges
     for (int x = 0; x < w; ++x) max_range = std::max(max_range, r.hi.at(x, y) - r.lo.at(x, y) + 1);
   MatchScratch ref_scratch = make_scratch(detail::reference::match_scratch_bytes(w, max_range, config.shd_window), 1);
   Plane<std::int16_t> expected(w, h);
-  detail::reference::match(ref, other, r.lo, r.hi, config, ref_scratch, expected);
+  const auto planes = detail::SearchRanges::planes(r.lo, r.hi);
+  detail::reference::match(ref, other, planes, config, ref_scratch, expected);
+  if (r.rule) {
+    Plane<std::int16_t> by_rule(w, h);
+    detail::reference::match(ref, other, *r.rule, config, ref_scratch, by_rule);
+    EXPECT_EQ(first_difference(expected, by_rule), "") << "reference, ranges by the rule";
+  }
 
   Stats stats;
   for (int y = 0; y < h; ++y)
@@ -104,20 +116,24 @@ Stats expect_same(const CensusCodes& ref, const CensusCodes& other, const Ranges
   for_each_match_target([&](const std::string& target) {
     for (int threads : {1, 2}) {
       omp_set_num_threads(threads);
-      Plane<std::int16_t> got(w, h, out_pad);
-      // Sentinels in the pad columns: the stage must write exactly the image pixels.
-      for (int y = 0; y < h; ++y)
-        for (int x = -out_pad; x < w + out_pad; ++x) got.row(y)[x] = 12345;
-      detail::cpu::match(ref, other, r.lo, r.hi, config, scratch, got);
-      EXPECT_EQ(first_difference(expected, got), "")
-          << target << ", " << threads << " threads, " << w << "x" << h << ", dir " << config.dir << ", a "
-          << config.shd_window << ", words " << ref.words << ", subpixel " << config.subpixel << ", uniqueness "
-          << config.uniqueness_ratio;
-      for (int y = 0; y < h; ++y)
-        for (int x = 1; x <= out_pad; ++x) {
-          ASSERT_EQ(got.row(y)[-x], 12345) << target;
-          ASSERT_EQ(got.row(y)[w - 1 + x], 12345) << target;
-        }
+      for (const detail::SearchRanges* form : {&planes, r.rule ? &*r.rule : nullptr}) {
+        if (form == nullptr) continue;
+        Plane<std::int16_t> got(w, h, out_pad);
+        // Sentinels in the pad columns: the stage must write exactly the image pixels.
+        for (int y = 0; y < h; ++y)
+          for (int x = -out_pad; x < w + out_pad; ++x) got.row(y)[x] = 12345;
+        detail::cpu::match(ref, other, *form, config, scratch, got);
+        EXPECT_EQ(first_difference(expected, got), "")
+            << target << ", " << threads << " threads, " << w << "x" << h << ", ranges "
+            << (form == &planes ? "from planes" : "by the rule") << ", dir " << config.dir << ", a "
+            << config.shd_window << ", words " << ref.words << ", subpixel " << config.subpixel << ", uniqueness "
+            << config.uniqueness_ratio;
+        for (int y = 0; y < h; ++y)
+          for (int x = 1; x <= out_pad; ++x) {
+            ASSERT_EQ(got.row(y)[-x], 12345) << target;
+            ASSERT_EQ(got.row(y)[w - 1 + x], 12345) << target;
+          }
+      }
     }
   });
   omp_set_num_threads(saved_threads);
@@ -261,6 +277,29 @@ TEST(CpuMatch, VariedPerPixelRangesFromACoarsePrior) {
   }
 }
 
+TEST(CpuMatch, RangesByTheRuleAtAwkwardSizesAndPriorSizes) {
+  // The tile-local ranges around a prior (one coarse row per two tile rows, tiles cut through
+  // coarse columns, odd widths and heights reading the last coarse column or row, a prior of
+  // floor(W / 2) as well as the pipeline's ceil(W / 2)) against the reference rule.
+  std::uint32_t seed = 900;
+  int radius = 0;
+  for (auto [w, h] : awkward_sizes()) {
+    if (w * h > 100000) w = 181, h = 67;  // a smaller odd size instead of the large one: quicker
+    const Pair pair = make_pair(w, h, ++seed, 4);
+    const CensusCodes left = census(pair.left, 5, CensusKind::Census);
+    const CensusCodes right = census(pair.right, 5, CensusKind::Census);
+    for (bool ceil_half : {true, false}) {
+      const int cw = ceil_half ? (w + 1) / 2 : w / 2, ch = ceil_half ? (h + 1) / 2 : h / 2;
+      if (cw == 0 || ch == 0) continue;
+      const Plane<std::int16_t> prior = random_disparity(cw, ch, ++seed, -16 * 3, 16 * 12, 0.2, true);
+      const Ranges r = ranges(w, h, &prior, -4, 22, radius);
+      radius = (radius + 1) % 4;
+      for (int dir : {-1, +1})
+        expect_same(dir < 0 ? left : right, dir < 0 ? right : left, r, {dir, 5, true, dir < 0 ? 15 : 0});
+    }
+  }
+}
+
 TEST(CpuMatch, SmoothPriorLikeTheFinestLevel) {
   // A slanted surface seen through the pyramid: prior = 2 x (a plane at half resolution).
   const int w = 150, h = 60;
@@ -304,7 +343,7 @@ TEST(CpuMatch, ArbitraryRangesIncludingEmptyOnes) {
   const Pair pair = make_pair(w, h, 81, 3);
   const CensusCodes left = census(pair.left, 5, CensusKind::Census);
   const CensusCodes right = census(pair.right, 5, CensusKind::Census);
-  Ranges r{Plane<std::int16_t>(w, h), Plane<std::int16_t>(w, h)};
+  Ranges r{Plane<std::int16_t>(w, h), Plane<std::int16_t>(w, h), std::nullopt};
   std::mt19937 rng(82);
   std::uniform_int_distribution<int> dist(-12, 40);
   int empty = 0;

@@ -104,14 +104,14 @@ TEST(ReferenceMatch, ConstantShiftIsFoundExactly) {
   detail::MatchScratch scratch;
   scratch.bytes_per_thread = detail::reference::match_scratch_bytes(w, 16, 5);
   scratch.data = detail::allocate_aligned<std::uint8_t>(scratch.bytes_per_thread);
-  detail::reference::match(cl, cr, lo, hi, {-1, 5, false, 0}, scratch, disp);
+  detail::reference::match(cl, cr, detail::SearchRanges::planes(lo, hi), {-1, 5, false, 0}, scratch, disp);
   for (int y = 0; y < h; ++y)
     for (int x = shift + 4; x < w - 4; ++x) ASSERT_EQ(disp.at(x, y), 16 * shift) << x << "," << y;
   // x = 0 of the left view has only d <= 0 in the image: with the range [0, 15] it takes d = 0.
   EXPECT_EQ(disp.at(0, 0), 0);
   // With a range starting at 1 it has no candidate at all.
   detail::reference::search_ranges(nullptr, 1, 15, 0, lo, hi);
-  detail::reference::match(cl, cr, lo, hi, {-1, 5, false, 0}, scratch, disp);
+  detail::reference::match(cl, cr, detail::SearchRanges::planes(lo, hi), {-1, 5, false, 0}, scratch, disp);
   EXPECT_EQ(disp.at(0, 0), kInvalid);
   EXPECT_EQ(disp.at(1, 0), 16);
 }

@@ -1,0 +1,111 @@
+// Per-target helper shared by search_ranges and match: the search ranges of a segment of one row
+// from the coarse prior (search_range_at() of stages.hpp, vectorised). The range depends only on
+// the coarse pixel (x/2, y/2), so it is computed once per coarse pixel and then replicated 2 x.
+// Included after <hwy/highway.h> by files that use foreach_target.h; the toggled guard is
+// Highway's idiom for a header compiled once per SIMD target.
+#if defined(MCTSTEREO_CPU_SEARCH_RANGE_INL_H_) == defined(HWY_TARGET_TOGGLE)
+#ifdef MCTSTEREO_CPU_SEARCH_RANGE_INL_H_
+#undef MCTSTEREO_CPU_SEARCH_RANGE_INL_H_
+#else
+#define MCTSTEREO_CPU_SEARCH_RANGE_INL_H_
+#endif
+
+#include <hwy/highway.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <limits>
+
+#include "stages.hpp"
+
+HWY_BEFORE_NAMESPACE();
+namespace mctstereo::detail::cpu::HWY_NAMESPACE {
+
+/// Values past the end that PriorRangeSegment may write: its outputs must have this much room.
+inline constexpr int kRangeSegmentSlack = 64;
+
+// Ranges of the fine columns [x_begin, x_end) of a row that reads coarse row cy (x_begin even),
+// into lo_out[x - x_begin] and hi_out[x - x_begin]. Fine column x reads coarse column
+// min(x / 2, cw - 1). Whole vectors are written, up to kRangeSegmentSlack values past x_end:
+// at the widths of a matching tile (64) a scalar tail would cost as much as the rest.
+//
+// Arithmetic stays in int16: v >> 4 lies in [-2048, 2047], so 2 v cannot overflow, and the
+// saturating +- radius (a small number) only saturates where the reference's int result lies
+// outside int16 too, which the clip to [dmin, dmax] (int16 values) then maps to the same bound.
+inline void PriorRangeSegment(const Plane<std::int16_t>& coarse, int cy, int x_begin, int x_end, int dmin, int dmax,
+                              int radius, std::int16_t* HWY_RESTRICT lo_out, std::int16_t* HWY_RESTRICT hi_out) {
+  namespace hn = hwy::HWY_NAMESPACE;
+  // Coarse columns per pass; their column minima and maxima live in stack arrays. Vectors are at
+  // most 64 bytes: the slack every Plane row has past its end.
+  constexpr int kChunk = 256;
+  constexpr int kMaxLanes = 32;
+  const hn::CappedTag<std::int16_t, kMaxLanes> d;
+  const int n = static_cast<int>(hn::Lanes(d));
+  const int cw = coarse.width(), ch = coarse.height();
+  const std::int16_t* above = coarse.row(clamp_index(cy - 1, ch));
+  const std::int16_t* centre = coarse.row(cy);
+  const std::int16_t* below = coarse.row(clamp_index(cy + 1, ch));
+  const auto invalid = hn::Set(d, kInvalid);
+  const auto largest = hn::Set(d, std::numeric_limits<std::int16_t>::max());
+  const auto vmin = hn::Set(d, static_cast<std::int16_t>(dmin));
+  const auto vmax = hn::Set(d, static_cast<std::int16_t>(dmax));
+  const auto vr = hn::Set(d, static_cast<std::int16_t>(std::clamp(radius, -32768, 32767)));
+  // Index 0 holds coarse column c0 - 1; vectors may run up to a vector past the last entry needed.
+  HWY_ALIGN std::int16_t col_min[kChunk + 2 + kMaxLanes];
+  HWY_ALIGN std::int16_t col_max[kChunk + 2 + kMaxLanes];
+  HWY_ALIGN std::int16_t lo_buf[kChunk + kMaxLanes];
+  HWY_ALIGN std::int16_t hi_buf[kChunk + kMaxLanes];
+
+  const int c_first = std::min(x_begin / 2, cw - 1), c_last = std::min((x_end - 1) / 2, cw - 1);
+  int c0 = c_first;
+  for (;; c0 += kChunk) {
+    const int c1 = std::min(c0 + kChunk, c_last + 1);
+    // Column minima and maxima over the three rows. kInvalid (INT16_MIN) never wins a maximum over
+    // a valid value; for the minimum it is replaced by INT16_MAX. A column without valid values
+    // leaves INT16_MAX / INT16_MIN, which lose against any valid neighbour; if the centre is
+    // valid there is one, and if it is not the result is discarded.
+    for (int k = std::max(c0 - 1, 0); k < std::min(c1 + 1, cw); k += n) {
+      const auto a = hn::LoadU(d, above + k), b = hn::LoadU(d, centre + k), c = hn::LoadU(d, below + k);
+      auto for_min = [&](hn::Vec<decltype(d)> v) { return hn::IfThenElse(hn::Eq(v, invalid), largest, v); };
+      hn::StoreU(hn::Min(hn::Min(for_min(a), for_min(b)), for_min(c)), d, col_min + (k - c0 + 1));
+      hn::StoreU(hn::Max(hn::Max(a, b), c), d, col_max + (k - c0 + 1));
+    }
+    if (c0 == 0) col_min[0] = col_min[1], col_max[0] = col_max[1];  // column -1 repeats column 0
+    if (c1 == cw) col_min[cw - c0 + 1] = col_min[cw - c0], col_max[cw - c0 + 1] = col_max[cw - c0];
+
+    for (int k = c0; k < c1; k += n) {
+      const int i = k - c0 + 1;
+      const auto mn = hn::Min(hn::Min(hn::LoadU(d, col_min + i - 1), hn::LoadU(d, col_min + i)),
+                              hn::LoadU(d, col_min + i + 1));
+      const auto mx = hn::Max(hn::Max(hn::LoadU(d, col_max + i - 1), hn::LoadU(d, col_max + i)),
+                              hn::LoadU(d, col_max + i + 1));
+      const auto mn_px = hn::ShiftRight<4>(mn), mx_px = hn::ShiftRight<4>(mx);  // floor, as v >> 4
+      const auto lo = hn::Min(hn::Max(vmin, hn::SaturatedSub(hn::Add(mn_px, mn_px), vr)), vmax);
+      const auto hi = hn::Max(hn::Min(vmax, hn::SaturatedAdd(hn::Add(mx_px, mx_px), vr)), vmin);
+      const auto prior_invalid = hn::Eq(hn::LoadU(d, centre + k), invalid);
+      hn::StoreU(hn::IfThenElse(prior_invalid, vmin, lo), d, lo_buf + (k - c0));
+      hn::StoreU(hn::IfThenElse(prior_invalid, vmax, hi), d, hi_buf + (k - c0));
+    }
+
+    // Coarse column k covers the fine columns 2k and 2k + 1.
+    // The vectors past c1 carry values of no coarse column; a later pass or the slack takes them.
+    const int x_end_here = std::min(2 * c1, x_end);
+    for (int k = std::max(x_begin, 2 * c0) / 2; 2 * k < x_end_here; k += n) {
+      const auto l = hn::LoadU(d, lo_buf + (k - c0)), u = hn::LoadU(d, hi_buf + (k - c0));
+      hn::StoreInterleaved2(l, l, d, lo_out + (2 * k - x_begin));
+      hn::StoreInterleaved2(u, u, d, hi_out + (2 * k - x_begin));
+    }
+    if (c1 > c_last) break;
+  }
+  // Fine columns past 2 cw (an odd width over a coarse level of floor(W / 2)) read column cw - 1,
+  // which the last pass holds.
+  for (int x = std::max(x_begin, 2 * cw); x < x_end; ++x) {
+    lo_out[x - x_begin] = lo_buf[cw - 1 - c0];
+    hi_out[x - x_begin] = hi_buf[cw - 1 - c0];
+  }
+}
+
+}  // namespace mctstereo::detail::cpu::HWY_NAMESPACE
+HWY_AFTER_NAMESPACE();
+
+#endif  // per-target include guard
