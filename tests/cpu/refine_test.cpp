@@ -251,6 +251,52 @@ TEST(RefineCpu, LrCheckMatchesReference) {
   }
 }
 
+// A map like a real one: piecewise constant disparities (steps every few pixels, so vectors meet
+// depth edges) with sub-pixel noise that crosses the rounding point (16 k + 7 vs 16 k + 8), some
+// invalid pixels, and an `other` map that agrees mostly but not everywhere.
+Plane<std::int16_t> smooth_disparity(int w, int h, std::uint32_t seed, int base_q4, int step_px, int noise_q4) {
+  Plane<std::int16_t> p(w, h);
+  std::mt19937 rng(seed);
+  std::uniform_int_distribution<int> noise(-noise_q4, noise_q4), invalid(0, 19), level(0, 5);
+  for (int y = 0; y < h; ++y) {
+    int v = base_q4;
+    for (int x = 0; x < w; ++x) {
+      if (x % step_px == 0) v = base_q4 + 16 * level(rng) + 8 * (level(rng) % 2);
+      p.at(x, y) = invalid(rng) == 0 ? detail::kInvalid : static_cast<std::int16_t>(v + noise(rng));
+    }
+  }
+  return p;
+}
+
+TEST(RefineCpu, LrCheckMatchesReferenceOnSmoothMaps) {
+  std::uint32_t seed = 700;
+  auto sizes = awkward_sizes();
+  sizes.push_back({300, 2});
+  for (auto [w, h] : sizes) {
+    // Positive and negative disparities, narrow and wide steps, and values at the int16 limits
+    // (the rounding of 32760 must not overflow; partners of huge disparities leave the image).
+    for (auto [base, step] : {std::pair{16 * 3, 13}, {16 * -9, 40}, {16 * 20, 7}, {32760 - 16 * 6, 50},
+                              {-32768 + 16 * 1, 50}}) {
+      const auto a = smooth_disparity(w, h, ++seed, base, step, 9);
+      const auto b = smooth_disparity(w, h, ++seed, base, step, 9);
+      for (int dir : {-1, +1})
+        for (int threshold : {0, 16}) {
+          Plane<std::int16_t> expected(w, h), actual(w, h);
+          reference::lr_check(a, b, dir, threshold, expected);
+          if (w * h > 1000 && base == 16 * 3) {
+            const int kept = w * h - count_invalid(expected);
+            ASSERT_GT(kept, 0) << "a vacuous case";
+          }
+          for_each_target_and_threads([&](const std::string& where) {
+            cpu::lr_check(a, b, dir, threshold, actual);
+            ASSERT_EQ(first_difference(expected, actual), "")
+                << w << "x" << h << " base " << base << " dir " << dir << " threshold " << threshold << " on " << where;
+          });
+        }
+    }
+  }
+}
+
 TEST(RefineCpu, LrCheckKeepsAndRejectsOnLargeMaps) {
   // Guards the comparison above against a degenerate outcome (everything invalid or kept).
   const auto src = random_disparity(631, 479, 5, 0, 40, 0.1);
