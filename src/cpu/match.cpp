@@ -499,8 +499,9 @@ void WtaTile(const MatchJob& job, const TileBounds& tb, int x0, int y0, int tw, 
   }
   if (!last) return;
   const int ratio = job.config->uniqueness_ratio;
-  alignas(64) std::int16_t out[kTile];
+  alignas(64) std::int16_t out[kMaxLanes16];
   for (int r = 0; r < th; ++r) {
+    std::int16_t* row = job.disparity->row(y0 + r) + x0;
     for (int x = 0; x < tw; x += N16) {
       const std::int16_t* sp = state + (r * kTile + x) * kStateWords;
       WtaState st;
@@ -510,9 +511,20 @@ void WtaTile(const MatchJob& job, const TileBounds& tb, int x0, int y0, int tw, 
       st.cp1 = kSubpixel ? hn::Load(d16, sp + 3 * N16) : inf;
       st.sec = kUnique ? hn::Load(d16, sp + 4 * N16) : inf;
       const V16 f = hn::Load(d16, tb.F[r] + x), l = hn::Load(d16, tb.L[r] + x);
-      hn::Store(Finalize<kSubpixel, kUnique>(st, f, l, ratio), d16, out + x);
+      const V16 q4 = Finalize<kSubpixel, kUnique>(st, f, l, ratio);
+      // The pixels past tw belong to the next tile, which another thread may be writing: only the
+      // tile's own pixels are stored, by a masked store where the target has a true one.
+      if (x + N16 <= tw) {
+        hn::StoreU(q4, d16, row + x);
+      } else {
+#if HWY_TARGET <= HWY_AVX3
+        hn::BlendedStore(q4, hn::FirstN(d16, static_cast<std::size_t>(tw - x)), d16, row + x);
+#else
+        hn::Store(q4, d16, out);
+        std::copy_n(out, tw - x, row + x);
+#endif
+      }
     }
-    std::memcpy(job.disparity->row(y0 + r) + x0, out, tw * sizeof(std::int16_t));
   }
 }
 
