@@ -1,24 +1,74 @@
+// `mctstereo bench`.
+//
+// Every combination of --sizes x --num-disparities x --threads is one group: OpenCV StereoBM and
+// StereoSGBM (apps/peers.hpp, the configuration `eval` compares with) and then every preset on each
+// --backend, all on the same gray frames. The reference backend is single-threaded, so it is timed
+// once per (size, disparities), in the group of the first --threads value. After the timing, one
+// fresh child process per (size, disparities, preset) measures the matcher's peak resident memory.
+//
+// The JSON report (--json), an object:
+//   "settings": {
+//     "cpu_model", "cores_online", "simd_target" (of the cpu backend; "scalar" when only the
+//     reference backend ran), "openmp_max_threads" (threads of --threads 0), "compiler",
+//     "build_type", "date" (UTC, ISO 8601), "mctstereo_version", "opencv_version",
+//     "backend", "threads_requested", "threads", "opencv_threads": the first --backend and
+//       --threads values and the threads they gave (one-value runs read as they always did),
+//     "backends": [..], "thread_settings": [..] (0 = all cores), "num_disparities": [..],
+//     "sizes": ["WxH", ..], "presets": [..],
+//     "warmup_frames", "min_frames", "min_time_s": the flags, before the per-size scaling,
+//     "left_image", "right_image" }
+//   "records": one per (method, size, disparities, threads, backend) timed: {
+//     "method" (a preset, "opencv-stereobm" or "opencv-stereosgbm"), "kind" ("mctstereo" or
+//     "opencv"), "width", "height", "num_disparities" (OpenCV: rounded up to a multiple of 16),
+//     "threads" (used), "frames" (timed), "median_ms", "p95_ms", "fps" (1000 / median_ms),
+//     "backend" (mctstereo only), "threads_requested" (the --threads value of the group),
+//     "warmup_frames", "stage_median_ms" (mctstereo only: {"gray", "pyramid", "census", "match",
+//     "refine", "output", "frame"}, the median over the timed frames of Matcher::timings()),
+//     "ratio_to_stereobm" (fps / fps of StereoBM in the same group; null without one), last }
+//   "memory": {
+//     "peak_resident_bytes": this process's peak resident memory (VmHWM), every size included,
+//     "estimate_size": the largest size, "estimate_num_disparities": the first --num-disparities,
+//     "estimate_memory_bytes": {preset: estimate_memory at that size and range},
+//     "records": one per (size, disparities, preset): { "method", "width", "height",
+//       "num_disparities", "backend", "threads", "estimate_memory_bytes" (estimate_memory with the
+//       matcher's thread count), "peak_resident_bytes" (the child's peak resident memory over its
+//       resident memory just before it built the matcher, one frame matched), "baseline_resident_bytes",
+//       "peak_measure" ("reset": the peak was reset to the resident memory at the baseline through
+//       /proc/self/clear_refs; "difference": the kernel cannot reset it, so this is the rise of
+//       the peak, which understates when the process had been higher before) } }
+//   "skipped": [{"method", "size", "num_disparities", "reason"}]: what could not run, and why.
 #include "bench.hpp"
 
-#include <sys/resource.h>
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
-#include <opencv2/calib3d.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/core/version.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
+#include <charconv>
 #include <chrono>
+#include <cmath>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <iostream>
 #include <limits>
+#include <set>
+#include <sstream>
 
 #include "errors.hpp"
 #include "io.hpp"
+#include "json.hpp"
 #include "output_files.hpp"
+#include "peers.hpp"
 #include "statistics.hpp"
 
 #ifndef MCTSTEREO_SOURCE_DIR
@@ -28,23 +78,37 @@
 #define MCTSTEREO_VERSION "unknown"
 #endif
 
+extern char** environ;
+
 namespace mctstereo::app {
 
 namespace fs = std::filesystem;
 
 namespace {
 
-constexpr const char* kBenchFooter = R"(Each method matches the same gray frames (the Tsukuba pair, or --image-left/--image-right,
+constexpr const char* kBenchFooter =
+    R"(Each method matches the same gray frames (the Tsukuba pair, or --image-left/--image-right,
 resized to each size): --warmup frames first, then at least --frames frames and until --min-time
-seconds have passed. Times are wall-clock milliseconds per frame (median and 95th percentile);
-fps = 1000 / median; "x BM" = fps / fps of OpenCV StereoBM (blockSize 9) on the same frames.
+seconds have passed. Above 1280x720 both counts shrink with the pixel count (at least 5 timed
+frames and 1 warm-up); the reference backend, slow, scales so from 320x240 on (at least 1 frame
+each) and is timed once per size and range, with the first --threads value.
+Times are wall-clock milliseconds per frame (median and 95th percentile); fps = 1000 / median;
+"x BM" = fps / fps of OpenCV StereoBM (blockSize 9) with the same size, range and threads.
 StereoSGBM: blockSize 5, MODE_SGBM_3WAY, P1 = 8*5*5, P2 = 32*5*5. OpenCV needs a multiple of 16
-disparities: it searches --num-disparities rounded up to one.
+disparities: it searches --num-disparities rounded up to one. Stage times are the medians of the
+matcher's own per-stage times (frame = the whole call).
+Memory: a fresh process per size, range and preset builds the matcher, matches one frame, and
+reports its peak resident memory over what it held just before, next to estimate_memory().
+--sizes thesis = 320x240,640x480,1024x768,1280x720,2048x1536,3840x2160.
 )";
+
+const std::vector<std::string> kThesisSizes = {"320x240", "640x480", "1024x768", "1280x720", "2048x1536", "3840x2160"};
 
 struct FrameSize {
   int width = 0, height = 0;
+  long pixels() const { return static_cast<long>(width) * height; }
   std::string text() const { return std::to_string(width) + "x" + std::to_string(height); }
+  bool operator==(const FrameSize&) const = default;
 };
 
 FrameSize parse_size(const std::string& text) {
@@ -52,32 +116,118 @@ FrameSize parse_size(const std::string& text) {
   char x = 0, extra = 0;
   if (std::sscanf(text.c_str(), "%d%c%d%c", &s.width, &x, &s.height, &extra) != 3 || (x != 'x' && x != 'X') ||
       s.width < 1 || s.height < 1)
-    throw UsageError("--sizes: '" + text + "' is not a size WIDTHxHEIGHT such as 640x480");
+    throw UsageError("--sizes: '" + text + "' is not a size WIDTHxHEIGHT such as 640x480 (or the list 'thesis')");
   return s;
+}
+
+std::vector<FrameSize> parse_sizes(const std::vector<std::string>& items) {
+  std::vector<FrameSize> sizes;
+  for (const std::string& item : items) {
+    if (item == "thesis") {
+      for (const std::string& s : kThesisSizes) sizes.push_back(parse_size(s));
+    } else {
+      sizes.push_back(parse_size(item));
+    }
+  }
+  if (sizes.empty()) throw UsageError("--sizes: no size given");
+  for (std::size_t i = 0; i < sizes.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (sizes[i] == sizes[j]) throw UsageError("--sizes: " + sizes[i].text() + " is given twice");
+  return sizes;
+}
+
+// The whole numbers of a comma-separated flag, each in [lo, hi] and none twice.
+std::vector<int> parse_counts(const std::string& flag, const std::vector<std::string>& items, int lo, int hi) {
+  std::vector<int> values;
+  for (const std::string& item : items) {
+    int v = 0;
+    const auto [end, ec] = std::from_chars(item.data(), item.data() + item.size(), v);
+    if (item.empty() || ec != std::errc() || end != item.data() + item.size() || v < lo || v > hi)
+      throw UsageError(flag + ": '" + item + "' is not a whole number from " + std::to_string(lo) + " to " +
+                       std::to_string(hi));
+    if (std::find(values.begin(), values.end(), v) != values.end())
+      throw UsageError(flag + ": " + item + " is given twice");
+    values.push_back(v);
+  }
+  if (values.empty()) throw UsageError(flag + ": no value given");
+  return values;
+}
+
+std::vector<Backend> parse_backends(const std::vector<std::string>& items) {
+  std::vector<Backend> backends;
+  for (const std::string& item : items) {
+    Backend b;
+    try {
+      b = parse_backend(item);
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(std::string("--backend: ") + e.what());
+    }
+    if (std::find(backends.begin(), backends.end(), b) != backends.end())
+      throw UsageError("--backend: " + item + " is given twice");
+    backends.push_back(b);
+  }
+  if (backends.empty()) throw UsageError("--backend: no backend given");
+  return backends;
+}
+
+StereoParams bench_params(const std::string& preset_name, int num_disparities) {
+  StereoParams params = preset(preset_name);
+  params.min_disparity = 0;
+  params.num_disparities = num_disparities;
+  return params;
 }
 
 struct Measurement {
   std::string method, kind;  // kind: "mctstereo" or "opencv"
+  std::string backend;       // mctstereo only
   FrameSize size;
-  int num_disparities = 0, threads = 0, frames = 0;
+  int num_disparities = 0, threads_requested = 0, threads = 0, warmup = 0, frames = 0;
   double median_ms = 0, p95_ms = 0;
-  double ratio_to_stereobm = 0;  // fps / fps of StereoBM at the same size
+  double ratio_to_stereobm = std::numeric_limits<double>::quiet_NaN();  // NaN: no StereoBM in the group
+  std::vector<StageTime> stage_median_ms;                               // mctstereo only
   double fps() const { return median_ms > 0 ? 1000.0 / median_ms : 0.0; }
 };
 
-// Runs `frame` warm-up times, then at least `frames` times and until `min_time_s` have passed.
-std::vector<double> time_frames(const std::function<void()>& frame, int warmup, int frames, double min_time_s) {
+struct MemoryRecord {
+  std::string method, backend;
+  FrameSize size;
+  int num_disparities = 0, threads = 0;
+  std::size_t estimate_bytes = 0;
+  long long peak_bytes = 0, baseline_bytes = 0;
+  std::string peak_measure;
+};
+
+struct FramePlan {
+  int warmup = 0, frames = 0;
+};
+
+// Large frames take long enough that fewer of them give a stable median: above `full_pixels`
+// both counts shrink in proportion to the pixel count.
+FramePlan frame_plan(const FrameSize& size, bool reference_backend, int warmup, int frames) {
+  const long full_pixels = reference_backend ? 320L * 240 : 1280L * 720;
+  if (size.pixels() <= full_pixels) return {warmup, frames};
+  const double scale = static_cast<double>(full_pixels) / static_cast<double>(size.pixels());
+  const int least_frames = std::min(frames, reference_backend ? 1 : 5);
+  return {std::max(std::min(warmup, 1), static_cast<int>(std::ceil(warmup * scale))),
+          std::max(least_frames, static_cast<int>(std::ceil(frames * scale)))};
+}
+
+// Runs `frame` plan.warmup times, then at least plan.frames times and until `min_time_s` have
+// passed, calling `after_timed` after each timed frame (outside its time).
+std::vector<double> time_frames(const std::function<void()>& frame, const std::function<void()>& after_timed,
+                                const FramePlan& plan, double min_time_s) {
   using Clock = std::chrono::steady_clock;
-  for (int i = 0; i < warmup; ++i) frame();
+  for (int i = 0; i < plan.warmup; ++i) frame();
   std::vector<double> ms;
   const auto start = Clock::now();
   // A ceiling keeps a tiny frame size from running for millions of frames.
-  const std::size_t ceiling = static_cast<std::size_t>(std::max(frames, 10000));
-  while (ms.size() < static_cast<std::size_t>(frames) ||
+  const std::size_t ceiling = static_cast<std::size_t>(std::max(plan.frames, 10000));
+  while (ms.size() < static_cast<std::size_t>(plan.frames) ||
          (std::chrono::duration<double>(Clock::now() - start).count() < min_time_s && ms.size() < ceiling)) {
     const auto t0 = Clock::now();
     frame();
     ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    if (after_timed) after_timed();
   }
   return ms;
 }
@@ -99,10 +249,68 @@ std::string cpu_model() {
   return "unknown";
 }
 
-long peak_resident_kib() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return usage.ru_maxrss;  // KiB on Linux
+// A "kB" line of /proc/self/status ("VmRSS", "VmHWM"), KiB; -1 where there is none.
+long status_kib(const std::string& key) {
+  std::ifstream in("/proc/self/status");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind(key + ":", 0) == 0) return std::strtol(line.c_str() + key.size() + 1, nullptr, 10);
+  return -1;
+}
+
+std::string compiler_version() {
+#if defined(__clang__)
+  return std::string("clang ") + __clang_version__;
+#elif defined(__GNUC__)
+  return std::string("g++ ") + __VERSION__;
+#else
+  return "unknown";
+#endif
+}
+
+// CMake's build type when the build passes it on; otherwise what the compiler flags tell.
+std::string build_type() {
+#if defined(MCTSTEREO_BUILD_TYPE)
+  return MCTSTEREO_BUILD_TYPE;
+#elif defined(__OPTIMIZE__) && defined(NDEBUG)
+  return "optimized, NDEBUG (Release-like)";
+#elif defined(__OPTIMIZE__)
+  return "optimized, assertions on";
+#else
+  return "not optimized (Debug-like)";
+#endif
+}
+
+std::string utc_date() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buf;
+}
+
+struct Settings {
+  std::string cpu = cpu_model();
+  long cores_online = sysconf(_SC_NPROCESSORS_ONLN);
+  std::string simd_target = "unknown";
+  int openmp_max_threads = 0;
+};
+
+// The SIMD target and the OpenMP default come from the library: ask a tiny matcher.
+Settings probe_settings() {
+  Settings s;
+  try {
+    StereoParams tiny;
+    tiny.pyramid_levels = 1;
+    tiny.num_disparities = 8;
+    const Matcher probe(64, 32, tiny, Backend::Cpu);
+    s.simd_target = probe.simd_target();
+    s.openmp_max_threads = probe.threads();
+  } catch (const std::invalid_argument&) {
+    // Left "unknown": the settings block is informative, never a reason to stop.
+  }
+  return s;
 }
 
 fs::path executable_folder() {
@@ -129,8 +337,9 @@ std::pair<std::string, std::string> find_sample_pair(const std::string& data_fla
       return {(f / "imL.png").lexically_normal().string(), (f / "imR.png").lexically_normal().string()};
   if (!data_flag.empty())
     throw RuntimeError("--data " + in_quotes(data_flag) + ": no imL.png and imR.png there or in its tsukuba folder");
-  throw RuntimeError("cannot find the sample pair data/tsukuba/imL.png, imR.png: give --data or --image-left and "
-                     "--image-right");
+  throw RuntimeError(
+      "cannot find the sample pair data/tsukuba/imL.png, imR.png: give --data or --image-left and "
+      "--image-right");
 }
 
 std::string fixed(double v, int decimals) {
@@ -139,17 +348,169 @@ std::string fixed(double v, int decimals) {
   return buf;
 }
 
+std::string mib(double bytes) { return fixed(bytes / 1048576.0, 1); }
+
+// "[k/n] what" on stderr: one line each, or one line rewritten in place on a terminal (cleared
+// before anything else is printed, so the tables on stdout stay whole).
+class Progress {
+ public:
+  explicit Progress(int total) : total_(total), terminal_(isatty(STDERR_FILENO) == 1) {}
+  void step(const std::string& what) {
+    ++done_;
+    const std::string line = "mctstereo: [" + std::to_string(done_) + "/" + std::to_string(total_) + "] " + what;
+    if (terminal_) {
+      std::cerr << "\r\033[K" << line << std::flush;
+      showing_ = true;
+    } else {
+      std::cerr << line << "\n" << std::flush;
+    }
+  }
+  void clear() {
+    if (!showing_) return;
+    std::cerr << "\r\033[K" << std::flush;
+    showing_ = false;
+  }
+
+ private:
+  int total_, done_ = 0;
+  bool terminal_, showing_ = false;
+};
+
+// --- Memory probe -------------------------------------------------------------------------------
+// /proc/self/status's peak (VmHWM) covers the whole life of a process, so a process that has
+// already matched larger frames cannot tell what one matcher needs. Each probe is this program
+// again ("bench --memory-probe WxH:D:PRESET:BACKEND:THREADS"), fresh: it makes its frames, resets
+// the peak to its present resident memory, builds the matcher, matches one frame, and prints
+// "memory-probe BASELINE_KIB PEAK_KIB reset|difference" on stdout.
+
+std::string probe_spec(const FrameSize& size, int num_disparities, const std::string& preset_name, Backend backend,
+                       int threads) {
+  return size.text() + ":" + std::to_string(num_disparities) + ":" + preset_name + ":" +
+         std::string(to_string(backend)) + ":" + std::to_string(threads);
+}
+
+void run_memory_probe(const std::string& spec) {
+  std::vector<std::string> parts;
+  std::stringstream in(spec);
+  for (std::string part; std::getline(in, part, ':');) parts.push_back(part);
+  if (parts.size() != 5) throw UsageError("--memory-probe: '" + spec + "' is not WxH:D:PRESET:BACKEND:THREADS");
+  const FrameSize size = parse_size(parts[0]);
+  const int num_disparities = parse_counts("--memory-probe", {parts[1]}, 1, 2048).front();
+  const Backend backend = parse_backends({parts[3]}).front();
+  const int threads = parse_counts("--memory-probe", {parts[4]}, 0, 4096).front();
+  StereoParams params;
+  try {
+    params = bench_params(parts[2], num_disparities);
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("--memory-probe: ") + e.what());
+  }
+
+  // A textured pair whose right view is the left one shifted by a quarter of the range: memory
+  // does not depend on the content (the matcher allocates everything up front), but the frame is
+  // a realistic one.
+  const std::size_t w = static_cast<std::size_t>(size.width), h = static_cast<std::size_t>(size.height);
+  std::vector<std::uint8_t> left(w * h), right(w * h);
+  const std::size_t shift = static_cast<std::size_t>(num_disparities / 4);
+  for (std::size_t y = 0; y < h; ++y)
+    for (std::size_t x = 0; x < w; ++x) {
+      const std::uint32_t hash = static_cast<std::uint32_t>((x * 73856093u) ^ (y * 19349663u)) * 2654435761u;
+      left[y * w + x] = static_cast<std::uint8_t>(hash >> 24);
+    }
+  for (std::size_t y = 0; y < h; ++y)
+    for (std::size_t x = 0; x < w; ++x) right[y * w + x] = left[y * w + std::min(w - 1, x + shift)];
+  const ImageView l{left.data(), size.width, size.height, size.width, PixelFormat::Gray8};
+  const ImageView r{right.data(), size.width, size.height, size.width, PixelFormat::Gray8};
+
+  bool reset = false;
+  {
+    std::ofstream clear("/proc/self/clear_refs");
+    clear << "5" << std::flush;  // 5: reset the peak resident memory to the present one (Linux 4.0+)
+    reset = clear.good();
+  }
+  const long baseline_kib = status_kib(reset ? "VmRSS" : "VmHWM");
+  MatcherOptions options;
+  options.threads = threads;
+  long peak_kib = -1;
+  {
+    Matcher matcher(size.width, size.height, params, backend, options);
+    matcher.compute(l, r);
+    peak_kib = status_kib("VmHWM");
+  }
+  if (baseline_kib < 0 || peak_kib < 0) throw RuntimeError("/proc/self/status holds no VmRSS and VmHWM lines");
+  std::printf("memory-probe %ld %ld %s\n", baseline_kib, peak_kib, reset ? "reset" : "difference");
+}
+
+struct ProbeResult {
+  long baseline_kib = -1, peak_kib = -1;
+  std::string measure;
+  std::string error;  // non-empty when the probe failed
+};
+
+ProbeResult spawn_memory_probe(const std::string& spec) {
+  ProbeResult result;
+  int fds[2];
+  if (pipe2(fds, O_CLOEXEC) != 0) return {-1, -1, "", "cannot make a pipe"};
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, fds[1], STDOUT_FILENO);
+  std::string args[] = {"mctstereo", "bench", "--memory-probe", spec};
+  char* argv[] = {args[0].data(), args[1].data(), args[2].data(), args[3].data(), nullptr};
+  pid_t pid = 0;
+  const int spawned = posix_spawn(&pid, "/proc/self/exe", &actions, nullptr, argv, environ);
+  posix_spawn_file_actions_destroy(&actions);
+  close(fds[1]);
+  std::string out;
+  if (spawned == 0) {
+    char buf[256];
+    for (ssize_t n; (n = read(fds[0], buf, sizeof buf)) != 0;) {
+      if (n < 0 && errno == EINTR) continue;
+      if (n < 0) break;
+      out.append(buf, static_cast<std::size_t>(n));
+    }
+  }
+  close(fds[0]);
+  if (spawned != 0) return {-1, -1, "", "cannot start /proc/self/exe: " + std::string(std::strerror(spawned))};
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (!WIFEXITED(status) || WEXITSTATUS(status) != 0)
+    return {-1, -1, "",
+            WIFEXITED(status) ? "the probe exited with status " + std::to_string(WEXITSTATUS(status))
+                              : "the probe ended by signal " + std::to_string(WTERMSIG(status))};
+  char measure[16] = {};
+  if (std::sscanf(out.c_str(), "memory-probe %ld %ld %15s", &result.baseline_kib, &result.peak_kib, measure) != 3)
+    return {-1, -1, "", "the probe printed no result"};
+  result.measure = measure;
+  return result;
+}
+
+Json stage_json(const std::vector<StageTime>& stages) {
+  Json j = Json::object();
+  for (const StageTime& s : stages) j.set(s.stage, s.ms);
+  return j;
+}
+
 }  // namespace
 
 BenchCommand::BenchCommand(CLI::App& parent)
     : command_(parent.add_subcommand("bench", "time the presets against OpenCV StereoBM and StereoSGBM")) {
   CLI::App& app = *command_;
   app.footer(kBenchFooter);
-  app.add_option("--sizes", sizes_, "frame sizes WIDTHxHEIGHT, comma separated")->delimiter(',')->capture_default_str();
-  app.add_option("--num-disparities", num_disparities_, "disparities searched, from 0")
-      ->check(CLI::Range(1, 2048))
+  app.add_option("--sizes", sizes_, "frame sizes WIDTHxHEIGHT, comma separated; 'thesis' = the six thesis sizes")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--num-disparities", num_disparities_, "disparities searched, from 0; comma separated (1 to 2048)")
+      ->delimiter(',')
       ->capture_default_str();
   app.add_option("--presets", presets_, "presets to time, comma separated (default: all)")->delimiter(',');
+  app.add_option("--backend", backends_,
+                 "where the pipeline runs: cpu (SIMD + threads), reference (scalar); "
+                 "comma separated")
+      ->delimiter(',')
+      ->capture_default_str();
+  app.add_option("--threads", threads_, "threads of the cpu backend and OpenCV, comma separated; 0 = all cores")
+      ->delimiter(',')
+      ->capture_default_str();
   app.add_option("--frames", frames_, "frames timed per method and size (at least)")
       ->check(CLI::Range(1, 1000000))
       ->capture_default_str();
@@ -161,15 +522,19 @@ BenchCommand::BenchCommand(CLI::App& parent)
   app.add_option("--data", data_, "folder of the sample pair imL.png, imR.png (or a data folder with tsukuba/)");
   app.add_option("--image-left", image_left_, "left image to time on, instead of the sample pair");
   app.add_option("--image-right", image_right_, "right image to time on, instead of the sample pair");
-  run_flags_.add_to(app);
+  app.add_option("--memory-probe", memory_probe_)->group("");  // internal: see run_memory_probe
 }
 
 void BenchCommand::run() const {
-  const Backend backend = run_flags_.parsed_backend();
-  std::vector<FrameSize> sizes;
-  for (const std::string& s : sizes_) sizes.push_back(parse_size(s));
-  if (sizes.empty()) throw UsageError("--sizes: no size given");
-  std::vector<std::string> presets = presets_.empty() ? preset_names() : presets_;
+  if (!memory_probe_.empty()) {
+    run_memory_probe(memory_probe_);
+    return;
+  }
+  const std::vector<FrameSize> sizes = parse_sizes(sizes_);
+  const std::vector<int> disparity_counts = parse_counts("--num-disparities", num_disparities_, 1, 2048);
+  const std::vector<int> thread_settings = parse_counts("--threads", threads_, 0, 4096);
+  const std::vector<Backend> backends = parse_backends(backends_);
+  const std::vector<std::string> presets = presets_.empty() ? preset_names() : presets_;
   for (const std::string& name : presets) {
     try {
       (void)preset(name);
@@ -179,7 +544,7 @@ void BenchCommand::run() const {
   }
   if (image_left_.empty() != image_right_.empty())
     throw UsageError("--image-left and --image-right go together: give both or neither");
-  if (!json_.empty()) check_output_path(json_, {}, "JSON report");
+  if (!json_.empty()) check_output_path(json_, {image_left_, image_right_}, "JSON report");
 
   const auto [left_path, right_path] =
       image_left_.empty() ? find_sample_pair(data_) : std::pair{image_left_, image_right_};
@@ -189,153 +554,321 @@ void BenchCommand::run() const {
     throw RuntimeError("left image " + in_quotes(left_path) + " and right image " + in_quotes(right_path) +
                        " differ in size");
 
-  if (run_flags_.threads > 0) cv::setNumThreads(run_flags_.threads);
-  const int opencv_disparities = (num_disparities_ + 15) / 16 * 16;
-  std::vector<Measurement> measurements;
-  std::string simd_target = backend == Backend::Reference ? "scalar" : "";
-  int matcher_threads = 0;
-  Json skipped = Json::array();
+  const Settings settings = probe_settings();
+  const bool have_cpu = std::find(backends.begin(), backends.end(), Backend::Cpu) != backends.end();
+  const std::string simd_target = have_cpu ? settings.simd_target : "scalar";
+  auto join = [](const auto& items, auto text) {
+    std::string s;
+    for (const auto& item : items) s += (s.empty() ? "" : ",") + text(item);
+    return s;
+  };
+  const std::string backends_text = join(backends, [](Backend b) { return std::string(to_string(b)); });
+  const std::string threads_text = join(thread_settings, [](int t) { return std::to_string(t); });
+  std::printf("CPU       %s, %ld cores online\n", settings.cpu.c_str(), settings.cores_online);
+  std::printf("SIMD      %s; OpenMP %d threads by default; timed with --threads %s, --backend %s\n",
+              simd_target.c_str(), settings.openmp_max_threads, threads_text.c_str(), backends_text.c_str());
+  std::printf("versions  mctstereo %s, OpenCV %s, %s, build %s\n", MCTSTEREO_VERSION, CV_VERSION,
+              compiler_version().c_str(), build_type().c_str());
+  std::printf("date      %s\n\n", utc_date().c_str());
 
-  std::printf("%-10s %5s %4s  %-18s %10s %10s %9s %7s %7s\n", "size", "disp", "thr", "method", "median_ms", "p95_ms",
-              "fps", "x BM", "frames");
+  // Progress steps: per (size, range) the peers and cpu presets per thread setting, the reference
+  // presets once, and one memory probe per preset.
+  const bool have_reference = std::find(backends.begin(), backends.end(), Backend::Reference) != backends.end();
+  const int preset_count = static_cast<int>(presets.size());
+  const int steps = static_cast<int>(sizes.size() * disparity_counts.size()) *
+                    (static_cast<int>(thread_settings.size()) * (2 + (have_cpu ? preset_count : 0)) +
+                     (have_reference ? preset_count : 0) + preset_count);
+  Progress progress(steps);
+
+  // What cannot run (a preset invalid at a size, OpenCV too narrow a frame): noted once per
+  // (method, size, range), though it comes up for every thread setting and backend.
+  Json skipped = Json::array();
+  std::set<std::string> skip_notes;
+  auto skip = [&](const std::string& method, const FrameSize& size, int num_disparities, const std::string& reason) {
+    if (!skip_notes.insert(method + " " + size.text() + " " + std::to_string(num_disparities)).second) return;
+    progress.clear();
+    std::cerr << "mctstereo: note: skipping " << method << " at " << size.text() << " with " << num_disparities
+              << " disparities: " << reason << "\n";
+    Json s = Json::object();
+    s.set("method", method);
+    s.set("size", size.text());
+    s.set("num_disparities", num_disparities);
+    s.set("reason", reason);
+    skipped.push_back(std::move(s));
+  };
+  // The first problem validate() finds with a preset at a size, "" when it suits.
+  auto preset_problem = [&](const std::string& name, const FrameSize& size, int num_disparities) {
+    const std::string problems = bench_params(name, num_disparities).validate(size.width, size.height);
+    return problems.substr(0, problems.find('\n'));
+  };
+
+  std::vector<Measurement> measurements;
+  std::printf("%-10s %5s %4s  %-18s %-9s %10s %10s %9s %7s %7s\n", "size", "disp", "thr", "method", "backend",
+              "median_ms", "p95_ms", "fps", "x BM", "frames");
   std::fflush(stdout);
+  auto print_row = [&](const Measurement& m) {
+    const std::string ratio = std::isnan(m.ratio_to_stereobm) ? "-" : fixed(m.ratio_to_stereobm, 3);
+    progress.clear();
+    std::printf("%-10s %5d %4d  %-18s %-9s %10.3f %10.3f %9.1f %7s %7d\n", m.size.text().c_str(), m.num_disparities,
+                m.threads, m.method.c_str(), m.backend.empty() ? "-" : m.backend.c_str(), m.median_ms, m.p95_ms,
+                m.fps(), ratio.c_str(), m.frames);
+    std::fflush(stdout);
+  };
+  const auto set_opencv_threads = [](int threads) { cv::setNumThreads(threads > 0 ? threads : -1); };  // -1: default
+  set_opencv_threads(thread_settings.front());
+  const int first_opencv_threads = cv::getNumThreads();
+
   for (const FrameSize& size : sizes) {
     cv::Mat left, right;
     cv::resize(left_source, left, cv::Size(size.width, size.height), 0, 0, cv::INTER_LINEAR);
     cv::resize(right_source, right, cv::Size(size.width, size.height), 0, 0, cv::INTER_LINEAR);
-    std::vector<Measurement> rows;
-    auto report = [&](Measurement m, const std::vector<double>& ms) {
-      m.size = size;
-      m.frames = static_cast<int>(ms.size());
-      m.median_ms = median(ms);
-      m.p95_ms = percentile(ms, 95.0);
-      rows.push_back(m);
-    };
+    const ImageView l = image_view(left), r = image_view(right);
+    for (const int num_disparities : disparity_counts) {
+      const std::vector<Peer> peers = make_peers(0, num_disparities);
+      for (std::size_t ti = 0; ti < thread_settings.size(); ++ti) {
+        const int threads_requested = thread_settings[ti];
+        set_opencv_threads(threads_requested);
+        const std::string group = size.text() + ", " + std::to_string(num_disparities) + " disparities, --threads " +
+                                  std::to_string(threads_requested) + ": ";
+        double stereobm_fps = std::numeric_limits<double>::quiet_NaN();
+        auto finish = [&](Measurement m, const std::vector<double>& ms) {
+          m.size = size;
+          m.threads_requested = threads_requested;
+          m.frames = static_cast<int>(ms.size());
+          m.median_ms = median(ms);
+          m.p95_ms = percentile(ms, 95.0);
+          if (m.method == "opencv-stereobm") stereobm_fps = m.fps();
+          m.ratio_to_stereobm = m.fps() / stereobm_fps;  // NaN without StereoBM
+          print_row(m);
+          measurements.push_back(std::move(m));
+        };
 
-    auto skip = [&](const std::string& method, const std::string& reason) {
-      std::cerr << "mctstereo: note: skipping " << method << " at " << size.text() << ": " << reason << "\n";
-      Json s = Json::object();
-      s.set("method", method);
-      s.set("size", size.text());
-      s.set("reason", reason);
-      skipped.push_back(std::move(s));
-    };
+        // OpenCV first: StereoBM is the yardstick of the ratios.
+        const FramePlan opencv_plan = frame_plan(size, false, warmup_, frames_);
+        for (const Peer& peer : peers) {
+          progress.step(group + peer.name);
+          const int opencv_disparities = peer.matcher->getNumDisparities();
+          if (const std::string reason = peer_unsupported_reason(peer, size.width); !reason.empty()) {
+            skip(peer.name, size, opencv_disparities, reason);
+            continue;
+          }
+          try {
+            cv::Mat disparity;
+            Measurement m;
+            m.method = peer.name;
+            m.kind = "opencv";
+            m.num_disparities = opencv_disparities;
+            m.threads = cv::getNumThreads();
+            m.warmup = opencv_plan.warmup;
+            finish(m,
+                   time_frames([&] { peer.matcher->compute(left, right, disparity); }, {}, opencv_plan, min_time_s_));
+          } catch (const cv::Exception& e) {
+            skip(peer.name, size, opencv_disparities, "OpenCV: " + e.err);
+          }
+        }
 
-    // OpenCV first: StereoBM is the yardstick of the ratios. StereoSGBM (4.6) throws when the
-    // frame is as narrow as its range and crashes when narrower, and StereoBM finds nothing there:
-    // such sizes skip OpenCV rather than end the benchmark.
-    cv::Mat disparity;
-    auto time_opencv = [&](const std::string& method, const cv::Ptr<cv::StereoMatcher>& matcher) {
-      if (size.width <= opencv_disparities) {
-        skip(method, "OpenCV needs a frame wider than its " + std::to_string(opencv_disparities) + " disparities");
-        return;
+        for (const Backend backend : backends) {
+          if (backend == Backend::Reference && ti > 0) continue;  // single-threaded: timed once
+          const FramePlan plan = frame_plan(size, backend == Backend::Reference, warmup_, frames_);
+          for (const std::string& name : presets) {
+            progress.step(group + name + " (" + std::string(to_string(backend)) + ")");
+            if (const std::string problem = preset_problem(name, size, num_disparities); !problem.empty()) {
+              skip(name, size, num_disparities, problem);
+              continue;
+            }
+            MatcherOptions options;
+            options.threads = threads_requested;
+            Matcher matcher(size.width, size.height, bench_params(name, num_disparities), backend, options);
+            std::vector<std::vector<double>> stage_ms;
+            auto collect_stages = [&] {
+              const std::vector<StageTime>& t = matcher.timings();
+              stage_ms.resize(t.size());
+              for (std::size_t s = 0; s < t.size(); ++s) stage_ms[s].push_back(t[s].ms);
+            };
+            Measurement m;
+            m.method = name;
+            m.kind = "mctstereo";
+            m.backend = to_string(backend);
+            m.num_disparities = num_disparities;
+            m.threads = matcher.threads();
+            m.warmup = plan.warmup;
+            const std::vector<double> ms =
+                time_frames([&] { matcher.compute(l, r); }, collect_stages, plan, min_time_s_);
+            for (std::size_t s = 0; s < stage_ms.size(); ++s)
+              m.stage_median_ms.push_back({matcher.timings()[s].stage, median(stage_ms[s])});
+            finish(std::move(m), ms);
+          }
+        }
       }
-      try {
-        report({method, "opencv", {}, opencv_disparities, cv::getNumThreads()},
-               time_frames([&] { matcher->compute(left, right, disparity); }, warmup_, frames_, min_time_s_));
-      } catch (const cv::Exception& e) {
-        skip(method, "OpenCV: " + e.err);
-      }
-    };
-    time_opencv("opencv-stereobm", cv::StereoBM::create(opencv_disparities, 9));
-    time_opencv("opencv-stereosgbm", cv::StereoSGBM::create(0, opencv_disparities, 5, 8 * 5 * 5, 32 * 5 * 5, 0, 0, 0,
-                                                            0, 0, cv::StereoSGBM::MODE_SGBM_3WAY));
-    for (const std::string& name : presets) {
-      StereoParams params = preset(name);
-      params.min_disparity = 0;
-      params.num_disparities = num_disparities_;
-      const std::string problems = params.validate(size.width, size.height);
-      if (!problems.empty()) {
-        skip(name, problems.substr(0, problems.find('\n')));
-        continue;
-      }
-      MatcherOptions options;
-      options.threads = run_flags_.threads;
-      Matcher matcher(size.width, size.height, params, backend, options);
-      simd_target = matcher.simd_target();
-      matcher_threads = matcher.threads();
-      const ImageView l = image_view(left), r = image_view(right);
-      report({name, "mctstereo", {}, num_disparities_, matcher.threads()},
-             time_frames([&] { matcher.compute(l, r); }, warmup_, frames_, min_time_s_));
     }
-    const bool have_bm = !rows.empty() && rows.front().method == "opencv-stereobm";
-    for (Measurement& m : rows) {
-      m.ratio_to_stereobm = have_bm ? m.fps() / rows.front().fps() : std::numeric_limits<double>::quiet_NaN();
-      const std::string ratio = have_bm ? fixed(m.ratio_to_stereobm, 3) : "-";
-      std::printf("%-10s %5d %4d  %-18s %10.3f %10.3f %9.1f %7s %7d\n", m.size.text().c_str(), m.num_disparities,
-                  m.threads, m.method.c_str(), m.median_ms, m.p95_ms, m.fps(), ratio.c_str(), m.frames);
-      measurements.push_back(m);
+  }
+
+  // Stage medians, a table of their own so that the one above stays within 120 columns.
+  std::vector<std::string> stage_names;
+  for (const Measurement& m : measurements)
+    if (!m.stage_median_ms.empty()) {
+      for (const StageTime& s : m.stage_median_ms) stage_names.push_back(s.stage);
+      break;
+    }
+  if (!stage_names.empty()) {
+    progress.clear();
+    std::printf("\nper-stage medians, ms (the matcher's own times; frame = the whole call)\n");
+    std::printf("%-10s %5s %4s  %-18s %-9s", "size", "disp", "thr", "method", "backend");
+    for (const std::string& s : stage_names) std::printf(" %8s", s.c_str());
+    std::printf("\n");
+    for (const Measurement& m : measurements) {
+      if (m.stage_median_ms.empty()) continue;
+      std::printf("%-10s %5d %4d  %-18s %-9s", m.size.text().c_str(), m.num_disparities, m.threads, m.method.c_str(),
+                  m.backend.c_str());
+      for (const StageTime& s : m.stage_median_ms) std::printf(" %8.3f", s.ms);
+      std::printf("\n");
     }
     std::fflush(stdout);
   }
 
-  // Memory: what this process reached, and what the matcher itself needs at the largest size.
-  const FrameSize largest = *std::max_element(sizes.begin(), sizes.end(), [](const FrameSize& a, const FrameSize& b) {
-    return static_cast<long>(a.width) * a.height < static_cast<long>(b.width) * b.height;
-  });
-  const long peak_kib = peak_resident_kib();
-  Json estimates = Json::object();
-  std::string estimate_text;
-  for (const std::string& name : presets) {
-    StereoParams params = preset(name);
-    params.min_disparity = 0;
-    params.num_disparities = num_disparities_;
-    if (!params.validate(largest.width, largest.height).empty()) continue;
-    MatcherOptions options;
-    options.threads = run_flags_.threads;
-    const std::size_t bytes = estimate_memory(params, largest.width, largest.height, options);
-    estimates.set(name, bytes);
-    estimate_text += (estimate_text.empty() ? "" : ", ") + name + " " + fixed(bytes / 1048576.0, 1);
+  // Memory: one fresh process per (size, range, preset), on the cpu backend when it was timed,
+  // with the most threads asked for (the matcher holds match scratch per thread).
+  const Backend memory_backend = have_cpu ? Backend::Cpu : Backend::Reference;
+  int memory_threads = 1;
+  if (memory_backend == Backend::Cpu) {
+    const auto effective = [&](int t) { return t > 0 ? t : std::max(1, settings.openmp_max_threads); };
+    memory_threads = *std::max_element(thread_settings.begin(), thread_settings.end(),
+                                       [&](int a, int b) { return effective(a) < effective(b); });
+    memory_threads = effective(memory_threads);
   }
-  std::printf("peak resident memory %s MiB; matcher memory at %s (estimate_memory, MiB): %s\n",
-              fixed(peak_kib / 1024.0, 1).c_str(), largest.text().c_str(), estimate_text.c_str());
-  const std::string cpu = cpu_model();
-  std::printf("CPU %s, %ld cores online, SIMD %s, mctstereo %s, OpenCV %s\n", cpu.c_str(), sysconf(_SC_NPROCESSORS_ONLN),
-              simd_target.c_str(), MCTSTEREO_VERSION, CV_VERSION);
+  std::vector<MemoryRecord> memory_records;
+  for (const FrameSize& size : sizes)
+    for (const int num_disparities : disparity_counts)
+      for (const std::string& name : presets) {
+        progress.step("memory of " + name + " at " + size.text() + ", " + std::to_string(num_disparities) +
+                      " disparities");
+        if (!preset_problem(name, size, num_disparities).empty()) continue;  // noted above
+        MatcherOptions options;
+        options.threads = memory_threads;
+        MemoryRecord rec;
+        rec.method = name;
+        rec.backend = to_string(memory_backend);
+        rec.size = size;
+        rec.num_disparities = num_disparities;
+        rec.threads = memory_threads;
+        rec.estimate_bytes = estimate_memory(bench_params(name, num_disparities), size.width, size.height, options);
+        std::fflush(stdout);
+        const ProbeResult probe =
+            spawn_memory_probe(probe_spec(size, num_disparities, name, memory_backend, memory_threads));
+        if (!probe.error.empty()) {
+          skip("memory of " + name, size, num_disparities, probe.error);
+          continue;
+        }
+        rec.baseline_bytes = static_cast<long long>(probe.baseline_kib) * 1024;
+        rec.peak_bytes = static_cast<long long>(probe.peak_kib - probe.baseline_kib) * 1024;
+        rec.peak_measure = probe.measure;
+        memory_records.push_back(rec);
+      }
+  progress.clear();
+  std::printf(
+      "\nmatcher memory, MiB: peak resident memory of a fresh process that builds the matcher and matches\n"
+      "one frame, over what it held just before; estimate_memory() next to it (%s backend, %d threads)\n",
+      std::string(to_string(memory_backend)).c_str(), memory_threads);
+  std::printf("%-10s %5s  %-18s %10s %12s %9s\n", "size", "disp", "method", "peak", "estimate", "peak/est");
+  for (const MemoryRecord& rec : memory_records)
+    std::printf(
+        "%-10s %5d  %-18s %10s %12s %9s\n", rec.size.text().c_str(), rec.num_disparities, rec.method.c_str(),
+        mib(static_cast<double>(rec.peak_bytes)).c_str(), mib(static_cast<double>(rec.estimate_bytes)).c_str(),
+        rec.estimate_bytes > 0 ? fixed(static_cast<double>(rec.peak_bytes) / rec.estimate_bytes, 2).c_str() : "-");
 
-  if (!json_.empty()) {
-    Json settings = Json::object();
-    settings.set("cpu_model", cpu);
-    settings.set("cores_online", static_cast<long>(sysconf(_SC_NPROCESSORS_ONLN)));
-    settings.set("simd_target", simd_target);
-    settings.set("backend", to_string(backend));
-    settings.set("threads_requested", run_flags_.threads);
-    settings.set("threads", matcher_threads);
-    settings.set("opencv_threads", cv::getNumThreads());
-    settings.set("mctstereo_version", MCTSTEREO_VERSION);
-    settings.set("opencv_version", CV_VERSION);
-    settings.set("warmup_frames", warmup_);
-    settings.set("min_frames", frames_);
-    settings.set("min_time_s", min_time_s_);
-    settings.set("left_image", left_path);
-    settings.set("right_image", right_path);
-    Json records = Json::array();
-    for (const Measurement& m : measurements) {
-      Json r = Json::object();
-      r.set("method", m.method);
-      r.set("kind", m.kind);
-      r.set("width", m.size.width);
-      r.set("height", m.size.height);
-      r.set("num_disparities", m.num_disparities);
-      r.set("threads", m.threads);
-      r.set("frames", m.frames);
-      r.set("median_ms", m.median_ms);
-      r.set("p95_ms", m.p95_ms);
-      r.set("fps", m.fps());
-      r.set("ratio_to_stereobm", m.ratio_to_stereobm);  // null without a StereoBM time
-      records.push_back(std::move(r));
-    }
-    Json memory = Json::object();
-    memory.set("peak_resident_bytes", static_cast<long long>(peak_kib) * 1024);
-    memory.set("estimate_size", largest.text());
-    memory.set("estimate_memory_bytes", std::move(estimates));
-    Json report = Json::object();
-    report.set("settings", std::move(settings));
-    report.set("records", std::move(records));
-    report.set("memory", std::move(memory));
-    report.set("skipped", std::move(skipped));
-    write_json_file(json_, report);
+  // The first range at the largest size, as the report always held.
+  const FrameSize largest = *std::max_element(
+      sizes.begin(), sizes.end(), [](const FrameSize& a, const FrameSize& b) { return a.pixels() < b.pixels(); });
+  Json estimates = Json::object();
+  for (const MemoryRecord& rec : memory_records)
+    if (rec.size == largest && rec.num_disparities == disparity_counts.front())
+      estimates.set(rec.method, rec.estimate_bytes);
+  const long peak_kib = status_kib("VmHWM");
+  std::printf("peak resident memory of this process (every size): %s MiB\n", mib(peak_kib * 1024.0).c_str());
+  std::fflush(stdout);
+
+  if (json_.empty()) return;
+  Json settings_json = Json::object();
+  settings_json.set("cpu_model", settings.cpu);
+  settings_json.set("cores_online", settings.cores_online);
+  settings_json.set("simd_target", simd_target);
+  settings_json.set("backend", to_string(backends.front()));
+  settings_json.set("threads_requested", thread_settings.front());
+  settings_json.set("threads", backends.front() == Backend::Reference ? 1
+                               : thread_settings.front() > 0          ? thread_settings.front()
+                                                                      : settings.openmp_max_threads);
+  settings_json.set("opencv_threads", first_opencv_threads);
+  settings_json.set("mctstereo_version", MCTSTEREO_VERSION);
+  settings_json.set("opencv_version", CV_VERSION);
+  settings_json.set("openmp_max_threads", settings.openmp_max_threads);
+  settings_json.set("compiler", compiler_version());
+  settings_json.set("build_type", build_type());
+  settings_json.set("date", utc_date());
+  Json backends_json = Json::array(), threads_json = Json::array(), disparities_json = Json::array(),
+       sizes_json = Json::array(), presets_json = Json::array();
+  for (const Backend b : backends) backends_json.push_back(to_string(b));
+  for (const int t : thread_settings) threads_json.push_back(t);
+  for (const int d : disparity_counts) disparities_json.push_back(d);
+  for (const FrameSize& s : sizes) sizes_json.push_back(s.text());
+  for (const std::string& p : presets) presets_json.push_back(p);
+  settings_json.set("backends", std::move(backends_json));
+  settings_json.set("thread_settings", std::move(threads_json));
+  settings_json.set("num_disparities", std::move(disparities_json));
+  settings_json.set("sizes", std::move(sizes_json));
+  settings_json.set("presets", std::move(presets_json));
+  settings_json.set("warmup_frames", warmup_);
+  settings_json.set("min_frames", frames_);
+  settings_json.set("min_time_s", min_time_s_);
+  settings_json.set("left_image", left_path);
+  settings_json.set("right_image", right_path);
+
+  Json records = Json::array();
+  for (const Measurement& m : measurements) {
+    Json rec = Json::object();
+    rec.set("method", m.method);
+    rec.set("kind", m.kind);
+    rec.set("width", m.size.width);
+    rec.set("height", m.size.height);
+    rec.set("num_disparities", m.num_disparities);
+    rec.set("threads", m.threads);
+    rec.set("frames", m.frames);
+    rec.set("median_ms", m.median_ms);
+    rec.set("p95_ms", m.p95_ms);
+    rec.set("fps", m.fps());
+    if (!m.backend.empty()) rec.set("backend", m.backend);
+    rec.set("threads_requested", m.threads_requested);
+    rec.set("warmup_frames", m.warmup);
+    if (!m.stage_median_ms.empty()) rec.set("stage_median_ms", stage_json(m.stage_median_ms));
+    rec.set("ratio_to_stereobm", m.ratio_to_stereobm);  // null without a StereoBM time
+    records.push_back(std::move(rec));
   }
+  Json memory_json = Json::array();
+  for (const MemoryRecord& m : memory_records) {
+    Json rec = Json::object();
+    rec.set("method", m.method);
+    rec.set("width", m.size.width);
+    rec.set("height", m.size.height);
+    rec.set("num_disparities", m.num_disparities);
+    rec.set("backend", m.backend);
+    rec.set("threads", m.threads);
+    rec.set("estimate_memory_bytes", m.estimate_bytes);
+    rec.set("peak_resident_bytes", m.peak_bytes);
+    rec.set("baseline_resident_bytes", m.baseline_bytes);
+    rec.set("peak_measure", m.peak_measure);
+    memory_json.push_back(std::move(rec));
+  }
+  Json memory = Json::object();
+  memory.set("peak_resident_bytes", static_cast<long long>(peak_kib) * 1024);
+  memory.set("estimate_size", largest.text());
+  memory.set("estimate_num_disparities", disparity_counts.front());
+  memory.set("estimate_memory_bytes", std::move(estimates));
+  memory.set("records", std::move(memory_json));
+  Json report = Json::object();
+  report.set("settings", std::move(settings_json));
+  report.set("records", std::move(records));
+  report.set("memory", std::move(memory));
+  report.set("skipped", std::move(skipped));
+  write_json_file(json_, report);
 }
 
 }  // namespace mctstereo::app

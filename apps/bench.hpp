@@ -1,13 +1,12 @@
-// `mctstereo bench`: frame times of every preset and of OpenCV's StereoBM and StereoSGBM on the
-// same frames, in the same process.
+// `mctstereo bench`: frame times and per-stage times of the presets against OpenCV's StereoBM and
+// StereoSGBM on the same frames, in the same process, over lists of sizes, disparity ranges, thread
+// counts and backends; the matcher's peak resident memory per size next to estimate_memory().
 #pragma once
 
 #include <CLI/CLI.hpp>
 
 #include <string>
 #include <vector>
-
-#include "options.hpp"
 
 namespace mctstereo::app {
 
@@ -19,19 +18,22 @@ class BenchCommand {
   BenchCommand& operator=(const BenchCommand&) = delete;
 
   bool selected() const { return command_->parsed(); }
-  /// Runs the benchmark, prints the table, writes --json. Throws UsageError / RuntimeError.
+  /// Runs the benchmark, prints the tables, writes --json. Throws UsageError / RuntimeError.
   void run() const;
 
  private:
   CLI::App* command_;
-  RunFlags run_flags_;
   std::vector<std::string> sizes_ = {"320x240", "640x480"};
+  std::vector<std::string> num_disparities_ = {"64"};
+  std::vector<std::string> threads_ = {"0"};
+  std::vector<std::string> backends_ = {"cpu"};
   std::vector<std::string> presets_;
-  int num_disparities_ = 64;
   int frames_ = 50;
   int warmup_ = 5;
   double min_time_s_ = 0.5;
   std::string json_, data_, image_left_, image_right_;
+  // Hidden: measure one matcher's memory in this fresh process and print it (see bench.cpp).
+  std::string memory_probe_;
 };
 
 }  // namespace mctstereo::app

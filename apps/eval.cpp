@@ -1,18 +1,87 @@
+// `mctstereo eval`.
+//
+// Every scene folder under DATA is read and checked first (images, ground truth, masks, ranges,
+// outputs), so that a mistake costs no matching. Then per scene, per method (each --preset, then
+// the OpenCV peers with --peers), per step (the unchanged pair only, or every step of the exposure
+// study with --radiometric): match, score, and keep the disparity preview and error map of the
+// unchanged pair for --save. The tables come last.
+//
+// The JSON report (--json), an object. Percentages are 0..100; a region a scene does not have,
+// and any number that does not exist (avgerr without a single estimate), is null.
+//   "preset": the first preset; "presets": [every preset run]; "peers": [OpenCV methods run],
+//   "backend", "simd_target", "threads", "threshold" (px of the v2 numbers and the error maps),
+//   "parameters": every StereoParams field of the first preset (with the flags given; the
+//     scenes' own ranges replace min_disparity and num_disparities unless those were flags),
+//   "scenes": one per scene: {
+//     "scene", "set", "path", "width", "height",
+//     "min_disparity", "num_disparities": the first preset's range,
+//     "nonocc", "all", "disc", "density", "ms", "pixels": {"nonocc", "all", "disc"}: the first
+//       preset's v2 numbers (percent bad > threshold) and region sizes,
+//     "mask_source": "files" (nonocc from a mask file), "derived-lr-check" (nonocc derived by the
+//       left-right check of the two views' ground truths) or "ground-truth-only" (no nonocc),
+//     "regions": the regions the scene has, of "nonocc", "all", "disc",
+//     "methods": one per method, presets first: {
+//       "method", "kind" ("mctstereo" or "opencv"), "min_disparity", "num_disparities" (OpenCV:
+//       rounded up to a multiple of 16), "skipped" (the reason; only when the method could not
+//       run on this scene, and then nothing else follows),
+//       "nonocc", "all", "disc" (v2, percent bad > threshold), "average_percent_bad" (mean of the
+//       scene's v2 numbers), "density", "ms",
+//       "metrics": {region: {"pixels", "invalid_pixels", "bad_0_5", "bad_1", "bad_2", "bad_4",
+//         "avgerr", "rms" (px, over the pixels with an estimate), "invalid" (percent without an
+//         estimate), "d1" (KITTI D1 percent)}},
+//       "steps" (with --radiometric): [{"step" (label), "nonocc", "all", "disc",
+//         "average_percent_bad", "d1_all"}] in the order of the study } } ],
+//   "average", "average_percent_bad": the first preset's means over the scenes, as ever: "average"
+//     = {"nonocc", "all", "disc", "density", "ms"} (a region's mean over the scenes that have it);
+//     "average_percent_bad" = the mean of every v2 number of every scene,
+//   "methods": [{"method", "kind", "parameters" (presets), "scenes" (scored), "average": {"nonocc",
+//     "all", "disc", "density", "ms", "bad_0_5", "bad_1", "bad_2", "bad_4", "avgerr", "rms",
+//     "invalid", "d1" (v3 and D1 of the nonocc region), "d1_all"}, "average_percent_bad"}],
+//   "radiometric" (with --radiometric): {"headline", "seed", "steps": [{"step", "kind", "amount",
+//     "scores": {method: average percent bad over the scenes}}], "summary": [{"method", "kind",
+//     "census" ("ct", "mct"; null for OpenCV), "baseline", "worst", "worst_step", "mean",
+//     "worst_degradation", "mean_degradation"}], "by_change": {kind: {"ct", "mct"}} (mean
+//     degradation of the presets of each census over the steps of that kind), "conclusion"},
+//   "settings": {"cpu_model", "cores_online", "simd_target", "backend", "threads_requested",
+//     "threads", "opencv_threads", "compiler", "build_type", "date" (UTC, ISO 8601),
+//     "mctstereo_version", "opencv_version", "command_line"},
+//   "skipped": [{"scene", "method", "reason"}]: methods that could not run on a scene.
 #include "eval.hpp"
 
+#include <unistd.h>
+
+#include <opencv2/core/utility.hpp>
+#include <opencv2/core/version.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include <algorithm>
+#include <array>
+#include <cctype>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <ctime>
 #include <fstream>
 #include <iostream>
+#include <iterator>
 #include <limits>
+#include <optional>
 #include <sstream>
+#include <tuple>
 
 #include "errors.hpp"
 #include "eval_metrics.hpp"
 #include "io.hpp"
 #include "output_files.hpp"
+#include "peers.hpp"
+#include "radiometric.hpp"
 #include "statistics.hpp"
+
+#ifndef MCTSTEREO_VERSION
+#define MCTSTEREO_VERSION "unknown"
+#endif
 
 namespace mctstereo::app {
 
@@ -20,12 +89,39 @@ namespace fs = std::filesystem;
 
 namespace {
 
-constexpr const char* kEvalFooter = R"(Scores (Middlebury v2): percent of bad pixels, |d - ground truth| > 1 px (--threshold), in
-the nonocc, all and disc masks (value 255); pixels without a disparity count as bad. density is
-the percent of pixels with a disparity; ms the matcher's frame time (median of --repeat frames
-after one untimed frame). A scene folder holds a scene.txt (key=value: left, right, gt, gt_scale,
-gt_invalid, max_disp, masks); each scene searches 0 .. max_disp unless --min-disparity or
---num-disparities say otherwise. Scenes without masks (masks=none) are skipped with a note.
+constexpr const char* kEvalFooter = R"(Scores. Middlebury v2: percent of bad pixels, |d - ground truth| > 1 px (--threshold), in
+the nonocc, all and disc regions (mask value 255). Middlebury v3: bad 0.5, 1, 2 and 4 px, avgerr
+(mean |d - ground truth|) and rms in pixels, invalid (percent of pixels without a disparity).
+KITTI D1: percent of pixels whose error is > 3 px and > 5 % of the true disparity. Pixels without
+a disparity count as bad in every bad-N and D1 rate; avgerr and rms are taken over the pixels
+with a disparity only, the others being counted in invalid. density is the percent of all pixels
+with a disparity; ms the frame time, median of --repeat frames after one untimed frame (mctstereo:
+the matcher's frame, colour conversion included; OpenCV: compute() on gray frames).
+
+A scene folder holds a scene.txt (key=value): left, right, gt (the left view's ground truth: an 8-
+or 16-bit PNG/PGM, disparity = value / gt_scale, gt_invalid (default 0) = unknown; or a PFM,
+disparity = value / gt_scale (default 1), +INF = unknown), max_disp and optionally min_disp
+(default 0): each scene searches min_disp .. max_disp unless --min-disparity or --num-disparities
+say otherwise. masks: files of the nonocc [all [disc]] regions, or none; without an all file, all
+= the pixels with ground truth. gt_right: the right view's ground truth (same formats); with
+masks=none, nonocc is then derived by the left-right check of the two ground truths: a left pixel
+x with ground truth d is non-occluded when the right ground truth at x - round(d) is known and
+within 1 px of d. Such scenes have no disc region ('-' in the tables, null in the JSON). dmin.txt
+of the Middlebury 2005/2006 sets is a crop offset for depth, not a disparity: it is not read.
+
+--preset takes a comma-separated list (realtime,mct-full); the parameter flags apply on top of each
+preset. --peers adds OpenCV StereoBM (block 9) and StereoSGBM (block 5, 3-way) on gray frames,
+searching the scene's range rounded up to a multiple of 16 disparities.
+--save DIR (created if needed) writes per scene SCENE_disparity.png (turbo colours over the
+scene's range, black = no disparity) and SCENE_errors.png (the left image in grey, bad pixels
+(> --threshold, or no disparity) red, pixels without ground truth dimmed); with several methods,
+SCENE_METHOD_disparity.png and SCENE_METHOD_errors.png for all but a single preset; with
+--radiometric, of the unchanged pair. Files of those names in DIR are replaced, inputs never.
+--radiometric: the exposure study. For each step (none, gain, bias, gamma, vignetting, Gaussian
+noise seeded by 1 + the scene's index) the right image alone is changed and every method scored
+again (default: every preset); a cell is the average percent bad of the method (the mean of the
+v2 numbers of every scene), and the summary gives each method's baseline, worst and mean over the
+changes, and compares the CT presets with the MCT presets.
 )";
 
 std::string trim(const std::string& s) {
@@ -34,12 +130,37 @@ std::string trim(const std::string& s) {
   return s.substr(first, s.find_last_not_of(" \t\r") - first + 1);
 }
 
+std::string fixed(double v, int decimals) {
+  if (!std::isfinite(v)) return "-";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+
+std::string signed_fixed(double v, int decimals) { return (v >= 0 ? "+" : "") + fixed(v, decimals); }
+
+std::string size_text(const cv::Size& size) { return std::to_string(size.width) + "x" + std::to_string(size.height); }
+
+std::string joined(const std::vector<std::string>& parts, const std::string& separator = ", ") {
+  std::string text;
+  for (const std::string& p : parts) text += (text.empty() ? "" : separator) + p;
+  return text;
+}
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// --- Scenes -------------------------------------------------------------------------------------
+
 // One scene as scene.txt describes it.
 struct Scene {
   fs::path folder;
   std::string name, set;
   std::map<std::string, std::string> keys;
 
+  bool has(const std::string& k) const {
+    const auto it = keys.find(k);
+    return it != keys.end() && !it->second.empty();
+  }
   const std::string& key(const std::string& k) const {
     const auto it = keys.find(k);
     if (it == keys.end() || it->second.empty())
@@ -56,15 +177,24 @@ struct Scene {
     }
     throw RuntimeError("scene " + in_quotes(folder / "scene.txt") + ": " + k + "=" + text + " is not a number");
   }
+  double number_or(const std::string& k, double fallback) const { return has(k) ? number(k) : fallback; }
   std::string file(const std::string& name_in_scene) const { return (folder / name_in_scene).string(); }
 };
 
-struct SceneResult {
+enum Region : int { kNonocc = 0, kAll = 1, kDisc = 2 };
+constexpr int kRegions = 3;
+constexpr const char* kRegionNames[kRegions] = {"nonocc", "all", "disc"};
+
+// A scene read and checked, ready to be matched.
+struct SceneData {
   Scene scene;
-  int width = 0, height = 0;
-  StereoParams params;
-  MiddleburyV2Score score;
-  double ms = 0.0;
+  cv::Mat left, right;  // as the matcher takes them: 8-bit gray or BGR
+  cv::Mat left_gray, right_gray;
+  cv::Mat ground_truth;  // CV_32F pixels, NaN where unknown
+  std::array<cv::Mat, kRegions> masks;  // CV_8U, 255 = in the region; empty: the scene has no such region
+  std::string mask_source;  // "files", "derived-lr-check", "ground-truth-only"
+  int min_disparity = 0, num_disparities = 0;  // the scene's own range
+  std::vector<std::string> files;              // every file read, which --save must not overwrite
 };
 
 template <typename T>
@@ -72,19 +202,818 @@ MapView<const T> map_view(const cv::Mat& m) {
   return {m.ptr<const T>(0), m.cols, m.rows, static_cast<std::ptrdiff_t>(m.step[0] / sizeof(T))};
 }
 
+template <typename T>
+MapView<T> mutable_map_view(cv::Mat& m) {
+  return {m.ptr<T>(0), m.cols, m.rows, static_cast<std::ptrdiff_t>(m.step[0] / sizeof(T))};
+}
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  return ext;
+}
+
+// A PFM file as Middlebury 2014 stores ground truth: "Pf" (one channel), width and height, a
+// scale whose sign is the byte order (negative: little-endian), one whitespace byte, then 32-bit
+// floats with the bottom row first. Returned top row first, CV_32F.
+cv::Mat read_pfm(const std::string& path, const std::string& role) {
+  const std::string what = role + " " + in_quotes(path);
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (!fs::exists(status)) throw RuntimeError("cannot read " + what + ": no such file");
+  if (fs::is_directory(status)) throw RuntimeError("cannot read " + what + ": it is a folder, not a PFM file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw RuntimeError("cannot read " + what + ": " + std::strerror(errno));
+  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+
+  std::size_t at = 0;
+  const auto skip_space = [&] {
+    while (at < bytes.size() && std::isspace(bytes[at])) ++at;
+  };
+  const auto token = [&] {
+    skip_space();
+    std::string t;
+    while (at < bytes.size() && !std::isspace(bytes[at]) && t.size() < 32) t += static_cast<char>(bytes[at++]);
+    return t;
+  };
+  const std::string magic = token();
+  if (magic == "PF")
+    throw RuntimeError(what + " is a colour PFM (PF): ground truth must have one channel (Pf)");
+  if (magic != "Pf") throw RuntimeError(what + " is not a PFM file: it must start with 'Pf'");
+  const std::string width_text = token(), height_text = token(), scale_text = token();
+  long width = 0, height = 0;
+  double scale = 0.0;
+  try {
+    std::size_t used_w = 0, used_h = 0, used_s = 0;
+    width = std::stol(width_text, &used_w);
+    height = std::stol(height_text, &used_h);
+    scale = std::stod(scale_text, &used_s);
+    if (used_w != width_text.size() || used_h != height_text.size() || used_s != scale_text.size()) width = 0;
+  } catch (const std::exception&) {
+    width = 0;
+  }
+  if (width < 1 || height < 1 || width > 65536 || height > 65536 || !std::isfinite(scale) || scale == 0.0)
+    throw RuntimeError(what + ": bad PFM header '" + magic + " " + width_text + " " + height_text + " " + scale_text +
+                       "' (expected 'Pf WIDTH HEIGHT SCALE', a non-zero scale whose sign is the byte order)");
+  // Exactly one whitespace byte ends the header: the samples may begin with a byte that looks like one.
+  if (at >= bytes.size() || !std::isspace(bytes[at]))
+    throw RuntimeError(what + ": bad PFM header: no line break after the scale");
+  ++at;
+  const std::size_t expected = static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 4;
+  if (bytes.size() - at < expected)
+    throw RuntimeError(what + ": truncated PFM: " + std::to_string(width) + "x" + std::to_string(height) + " needs " +
+                       std::to_string(expected) + " bytes of samples, the file has " +
+                       std::to_string(bytes.size() - at));
+  const bool little_endian = scale < 0;
+  cv::Mat values(static_cast<int>(height), static_cast<int>(width), CV_32F);
+  for (int y = 0; y < values.rows; ++y) {
+    const unsigned char* src = bytes.data() + at + static_cast<std::size_t>(values.rows - 1 - y) * width * 4;
+    float* dst = values.ptr<float>(y);
+    for (int x = 0; x < values.cols; ++x, src += 4) {
+      const std::uint32_t bits =
+          little_endian ? std::uint32_t{src[0]} | std::uint32_t{src[1]} << 8 | std::uint32_t{src[2]} << 16 |
+                              std::uint32_t{src[3]} << 24
+                        : std::uint32_t{src[3]} | std::uint32_t{src[2]} << 8 | std::uint32_t{src[1]} << 16 |
+                              std::uint32_t{src[0]} << 24;
+      std::memcpy(&dst[x], &bits, 4);
+    }
+  }
+  return values;
+}
+
+// Ground truth in pixels, NaN where unknown: a PFM (value / gt_scale, gt_scale 1 unless given;
+// non-finite = unknown) or an 8- or 16-bit image (value / gt_scale; gt_invalid, default 0, =
+// unknown). RuntimeError naming the file when it cannot be read or has the wrong size.
+cv::Mat read_ground_truth(const Scene& scene, const std::string& key, const cv::Size& size, const std::string& role) {
+  const std::string path = scene.file(scene.key(key));
+  const bool pfm = lower_extension(path) == ".pfm";
+  const double scale = pfm ? scene.number_or("gt_scale", 1.0) : scene.number("gt_scale");
+  if (!(scale > 0)) throw RuntimeError("scene " + scene.name + ": gt_scale must be positive");
+  cv::Mat gt;
+  if (pfm) {
+    gt = read_pfm(path, role);
+    for (int y = 0; y < gt.rows; ++y) {
+      float* row = gt.ptr<float>(y);
+      for (int x = 0; x < gt.cols; ++x)
+        row[x] = std::isfinite(row[x]) ? static_cast<float>(row[x] / scale) : std::numeric_limits<float>::quiet_NaN();
+    }
+  } else {
+    // read_gray_image says clearly what is wrong with a file it cannot read, and expands palettes;
+    // only a 16-bit file (KITTI style) needs a second decoding that keeps its depth.
+    cv::Mat raw = read_gray_image(path, role);
+    const cv::Mat deep = cv::imread(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
+    if (!deep.empty() && deep.depth() == CV_16U) raw = deep;
+    const double invalid = scene.number_or("gt_invalid", 0.0);
+    raw.convertTo(gt, CV_32F);
+    for (int y = 0; y < gt.rows; ++y) {
+      float* row = gt.ptr<float>(y);
+      for (int x = 0; x < gt.cols; ++x)
+        row[x] = row[x] == invalid ? std::numeric_limits<float>::quiet_NaN() : static_cast<float>(row[x] / scale);
+    }
+  }
+  if (gt.size() != size)
+    throw RuntimeError(role + " " + in_quotes(path) + " is " + size_text(gt.size()) + ", the scene's images " +
+                       size_text(size));
+  return gt;
+}
+
 cv::Mat read_mask(const Scene& scene, const std::string& name, const cv::Size& size) {
   const std::string path = scene.file(name);
   cv::Mat mask = read_gray_image(path, "mask of scene " + scene.name);
   if (mask.size() != size)
-    throw RuntimeError("mask " + in_quotes(path) + " is " + std::to_string(mask.cols) + "x" + std::to_string(mask.rows) +
-                       ", the scene's images " + std::to_string(size.width) + "x" + std::to_string(size.height));
+    throw RuntimeError("mask " + in_quotes(path) + " is " + size_text(mask.size()) + ", the scene's images " +
+                       size_text(size));
   return mask;
 }
 
-std::string fixed(double v, int decimals) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+cv::Mat to_gray(const cv::Mat& image) {
+  if (image.channels() == 1) return image;
+  cv::Mat gray;
+  cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+  return gray;
+}
+
+SceneData load_scene(const fs::path& folder) {
+  SceneData s;
+  Scene& scene = s.scene;
+  scene.folder = folder;
+  scene.keys = read_scene_file(folder / "scene.txt");
+  scene.name = scene.has("scene") ? scene.keys["scene"] : folder.filename().string();
+  scene.set = scene.has("set") ? scene.keys["set"] : "";
+  s.files.push_back((folder / "scene.txt").string());
+  if (scene.has("gt_view") && scene.key("gt_view") != "left")
+    throw RuntimeError("scene " + in_quotes(folder / "scene.txt") + ": gt_view=" + scene.key("gt_view") +
+                       "; gt must be the left view's ground truth (the right view's goes in gt_right)");
+
+  const std::string left_path = scene.file(scene.key("left")), right_path = scene.file(scene.key("right"));
+  s.left = read_input_image(left_path, "left image of scene " + scene.name);
+  s.right = read_input_image(right_path, "right image of scene " + scene.name);
+  if (s.left.size() != s.right.size())
+    throw RuntimeError("scene " + scene.name + ": left image is " + size_text(s.left.size()) + ", right image " +
+                       size_text(s.right.size()));
+  s.left_gray = to_gray(s.left);
+  s.right_gray = to_gray(s.right);
+  s.files.insert(s.files.end(), {left_path, right_path, scene.file(scene.key("gt"))});
+  s.ground_truth = read_ground_truth(scene, "gt", s.left.size(), "ground truth of scene " + scene.name);
+
+  std::vector<std::string> mask_files;
+  std::istringstream mask_list(scene.has("masks") ? scene.keys["masks"] : "none");
+  for (std::string m; mask_list >> m;)
+    if (m != "none") mask_files.push_back(m);
+  if (mask_files.size() > 3)
+    throw RuntimeError("scene " + in_quotes(folder / "scene.txt") + ": masks= names " +
+                       std::to_string(mask_files.size()) + " files; at most 3 (nonocc, all, disc)");
+  for (std::size_t r = 0; r < mask_files.size(); ++r) {
+    s.masks[r] = read_mask(scene, mask_files[r], s.left.size());
+    s.files.push_back(scene.file(mask_files[r]));
+  }
+  if (s.masks[kAll].empty()) {
+    s.masks[kAll] = cv::Mat(s.left.size(), CV_8U);
+    known_ground_truth_mask(map_view<float>(s.ground_truth), mutable_map_view<std::uint8_t>(s.masks[kAll]));
+  }
+  if (!mask_files.empty()) {
+    s.mask_source = "files";
+  } else if (scene.has("gt_right")) {
+    const cv::Mat right_gt = read_ground_truth(scene, "gt_right", s.left.size(), "right ground truth of scene " +
+                                                                                     scene.name);
+    s.files.push_back(scene.file(scene.key("gt_right")));
+    s.masks[kNonocc] = cv::Mat(s.left.size(), CV_8U);
+    lr_check_nonocc_mask(map_view<float>(s.ground_truth), map_view<float>(right_gt),
+                         mutable_map_view<std::uint8_t>(s.masks[kNonocc]), 1.0f);
+    s.mask_source = "derived-lr-check";
+  } else {
+    s.mask_source = "ground-truth-only";
+  }
+
+  s.min_disparity = static_cast<int>(std::floor(scene.number_or("min_disp", 0.0)));
+  const int max_disp = static_cast<int>(std::ceil(scene.number("max_disp")));
+  if (max_disp < s.min_disparity)
+    throw RuntimeError("scene " + in_quotes(folder / "scene.txt") + ": max_disp=" + std::to_string(max_disp) +
+                       " is below min_disp=" + std::to_string(s.min_disparity));
+  s.num_disparities = max_disp - s.min_disparity + 1;
+  return s;
+}
+
+// --- Methods and their scores ---------------------------------------------------------------------
+
+struct Method {
+  std::string name;
+  bool peer = false;
+  StereoParams params;  // presets: the preset with the flags on top; the range is set per scene
+};
+
+// One method on one scene at one step of the study.
+struct Score {
+  bool scored = false;
+  std::string skip_reason;
+  int min_disparity = 0, num_disparities = 0;
+  std::array<std::optional<RegionScore>, kRegions> v2;
+  std::array<std::optional<RegionMetrics>, kRegions> metrics;
+  double density = 0.0;
+  double ms = kNaN;  // timed at the baseline step only
+
+  double v2_percent(int region) const { return v2[region] ? v2[region]->percent() : kNaN; }
+  int v2_numbers() const {
+    int n = 0;
+    for (const auto& r : v2) n += r ? 1 : 0;
+    return n;
+  }
+  double v2_sum() const {
+    double sum = 0.0;
+    for (const auto& r : v2)
+      if (r) sum += r->percent();
+    return sum;
+  }
+  // The Middlebury "average percent bad" of this scene alone.
+  double average_percent_bad() const { return v2_numbers() > 0 ? v2_sum() / v2_numbers() : kNaN; }
+};
+
+Score score_estimate(const SceneData& s, MapView<const float> estimate, float threshold) {
+  Score score;
+  score.scored = true;
+  const MapView<const float> gt = map_view<float>(s.ground_truth);
+  for (int r = 0; r < kRegions; ++r) {
+    if (s.masks[r].empty()) continue;
+    const MapView<const std::uint8_t> mask = map_view<std::uint8_t>(s.masks[r]);
+    score.v2[r] = bad_pixels(estimate, gt, mask, 255, threshold);
+    score.metrics[r] = region_metrics(estimate, gt, mask, 255);
+  }
+  score.density = density_percent(estimate);
+  return score;
+}
+
+// Mean over the scenes whose score has a value; NaN when none has.
+template <typename F>
+double mean_over(const std::vector<const Score*>& scores, F value) {
+  double sum = 0.0;
+  int n = 0;
+  for (const Score* s : scores) {
+    if (!s->scored) continue;
+    const double v = value(*s);
+    if (!std::isfinite(v)) continue;
+    sum += v;
+    ++n;
+  }
+  return n > 0 ? sum / n : kNaN;
+}
+
+// Middlebury's "average percent bad": the mean of every v2 number of every scene.
+double average_percent_bad(const std::vector<const Score*>& scores) {
+  double sum = 0.0;
+  int n = 0;
+  for (const Score* s : scores)
+    if (s->scored) {
+      sum += s->v2_sum();
+      n += s->v2_numbers();
+    }
+  return n > 0 ? sum / n : kNaN;
+}
+
+int v2_number_count(const std::vector<const Score*>& scores) {
+  int n = 0;
+  for (const Score* s : scores) n += s->scored ? s->v2_numbers() : 0;
+  return n;
+}
+
+// Q4 disparities of a float map (NaN = invalid), for encode_preview.
+cv::Mat to_q4(MapView<const float> d, std::int16_t invalid_q4) {
+  cv::Mat q4(d.height, d.width, CV_16S);
+  for (int y = 0; y < d.height; ++y) {
+    const float* src = d.row(y);
+    std::int16_t* dst = q4.ptr<std::int16_t>(y);
+    for (int x = 0; x < d.width; ++x)
+      dst[x] = std::isfinite(src[x]) ? static_cast<std::int16_t>(std::lround(src[x] * kDisparityScale)) : invalid_q4;
+  }
+  return q4;
+}
+
+std::vector<std::uint8_t> encode_error_map(const SceneData& s, MapView<const float> estimate, float threshold) {
+  cv::Mat bgr(s.left.size(), CV_8UC3);
+  render_error_map(estimate, map_view<float>(s.ground_truth), map_view<std::uint8_t>(s.left_gray), threshold,
+                   {bgr.ptr<std::uint8_t>(0), bgr.cols, bgr.rows, static_cast<std::ptrdiff_t>(bgr.step[0])});
+  std::vector<std::uint8_t> bytes;
+  if (!cv::imencode(".png", bgr, bytes)) throw RuntimeError("cannot encode the error map of scene " + s.scene.name);
+  return bytes;
+}
+
+// A name that is safe as part of a file name.
+std::string file_name_part(const std::string& name) {
+  std::string out = name;
+  for (char& c : out)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '-' && c != '_' && c != '.') c = '_';
+  return out;
+}
+
+std::string kind_name(RadiometricKind kind) {
+  switch (kind) {
+    case RadiometricKind::Identity: return "none";
+    case RadiometricKind::Gain: return "gain";
+    case RadiometricKind::Bias: return "bias";
+    case RadiometricKind::Gamma: return "gamma";
+    case RadiometricKind::Vignetting: return "vignetting";
+    case RadiometricKind::Noise: return "noise";
+  }
+  return "?";
+}
+
+// "[scene 2/6 teddy] balanced, gain 0.5" on stderr: on a terminal one line rewritten in place (and
+// cleared before the tables), otherwise one plain line per scene.
+class Progress {
+ public:
+  explicit Progress(bool enabled) : enabled_(enabled), terminal_(enabled && isatty(STDERR_FILENO) == 1) {}
+  ~Progress() { clear(); }
+  Progress(const Progress&) = delete;
+  Progress& operator=(const Progress&) = delete;
+
+  void scene(const std::string& text) {
+    scene_ = text;
+    if (!enabled_) return;
+    if (terminal_)
+      show(scene_);
+    else
+      std::cerr << "mctstereo: " << scene_ << "\n" << std::flush;
+  }
+  void detail(const std::string& text) {
+    if (terminal_) show(scene_ + ": " + text);
+  }
+  void clear() {
+    if (!showing_) return;
+    std::cerr << "\r\033[K" << std::flush;
+    showing_ = false;
+  }
+
+ private:
+  void show(const std::string& text) {
+    std::cerr << "\r\033[Kmctstereo: " << text << std::flush;
+    showing_ = true;
+  }
+  bool enabled_, terminal_, showing_ = false;
+  std::string scene_;
+};
+
+// --- Settings -------------------------------------------------------------------------------------
+
+std::string cpu_model() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line;
+  for (const char* key : {"model name", "Model", "Hardware", "cpu model"}) {
+    in.clear();
+    in.seekg(0);
+    while (std::getline(in, line)) {
+      if (line.rfind(key, 0) != 0) continue;
+      const auto colon = line.find(':');
+      if (colon == std::string::npos) continue;
+      const auto start = line.find_first_not_of(" \t", colon + 1);
+      if (start != std::string::npos) return line.substr(start);
+    }
+  }
+  return "unknown";
+}
+
+std::string compiler_version() {
+#if defined(__clang__)
+  return std::string("clang ") + __clang_version__;
+#elif defined(__GNUC__)
+  return std::string("g++ ") + __VERSION__;
+#else
+  return "unknown";
+#endif
+}
+
+std::string build_type() {
+#if defined(MCTSTEREO_BUILD_TYPE)
+  return MCTSTEREO_BUILD_TYPE;
+#elif defined(__OPTIMIZE__) && defined(NDEBUG)
+  return "optimized, NDEBUG (Release-like)";
+#elif defined(__OPTIMIZE__)
+  return "optimized, assertions on";
+#else
+  return "not optimized (Debug-like)";
+#endif
+}
+
+std::string utc_date() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char buf[32];
+  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
   return buf;
+}
+
+// The command line of this process, arguments separated by spaces (as /proc/self/cmdline has it).
+std::string command_line() {
+  std::ifstream in("/proc/self/cmdline", std::ios::binary);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  while (!text.empty() && text.back() == '\0') text.pop_back();
+  std::replace(text.begin(), text.end(), '\0', ' ');
+  return text;
+}
+
+Json region_metrics_json(const RegionMetrics& m) {
+  Json j = Json::object();
+  j.set("pixels", m.pixels);
+  j.set("invalid_pixels", m.invalid);
+  j.set("bad_0_5", m.bad_percent(0));
+  j.set("bad_1", m.bad_percent(1));
+  j.set("bad_2", m.bad_percent(2));
+  j.set("bad_4", m.bad_percent(3));
+  j.set("avgerr", m.average_error());
+  j.set("rms", m.rms_error());
+  j.set("invalid", m.invalid_percent());
+  j.set("d1", m.d1_percent());
+  return j;
+}
+
+Json optional_number(double v) { return std::isfinite(v) ? Json(v) : Json(); }
+
+// --- Reports --------------------------------------------------------------------------------------
+
+// What a run measured, results[scene][method][step], and what it needs to be reported.
+struct Evaluation {
+  std::vector<Method> methods;
+  std::size_t preset_count = 0;  // methods[0 .. preset_count) are presets, the others OpenCV
+  std::vector<SceneData> scenes;
+  std::vector<RadiometricChange> steps;
+  std::size_t baseline = 0;  // the step of the unchanged pair
+  std::vector<std::vector<std::vector<Score>>> results;
+  float threshold = 1.0f;
+  Backend backend = Backend::Cpu;
+  std::string simd_target;
+  int threads = 0;
+
+  // The scores of one method at one step, scene by scene.
+  std::vector<const Score*> column(std::size_t method, std::size_t step) const {
+    std::vector<const Score*> c;
+    for (const auto& per_scene : results) c.push_back(&per_scene[method][step]);
+    return c;
+  }
+  std::string kind(std::size_t method) const { return methods[method].peer ? "opencv" : "mctstereo"; }
+};
+
+// One column of the Middlebury v3 / KITTI table.
+struct V3Column {
+  const char* header;  // in the table
+  const char* key;     // in the JSON averages
+  Region region;
+  double (*value)(const RegionMetrics&);
+};
+
+const std::array<V3Column, 9> kV3Columns = {{
+    {"bad0.5", "bad_0_5", kNonocc, [](const RegionMetrics& m) { return m.bad_percent(0); }},
+    {"bad1", "bad_1", kNonocc, [](const RegionMetrics& m) { return m.bad_percent(1); }},
+    {"bad2", "bad_2", kNonocc, [](const RegionMetrics& m) { return m.bad_percent(2); }},
+    {"bad4", "bad_4", kNonocc, [](const RegionMetrics& m) { return m.bad_percent(3); }},
+    {"avgerr", "avgerr", kNonocc, [](const RegionMetrics& m) { return m.average_error(); }},
+    {"rms", "rms", kNonocc, [](const RegionMetrics& m) { return m.rms_error(); }},
+    {"invalid", "invalid", kNonocc, [](const RegionMetrics& m) { return m.invalid_percent(); }},
+    {"D1-noc", "d1", kNonocc, [](const RegionMetrics& m) { return m.d1_percent(); }},
+    {"D1-all", "d1_all", kAll, [](const RegionMetrics& m) { return m.d1_percent(); }},
+}};
+
+double v3_value(const Score& s, const V3Column& column) {
+  return s.metrics[column.region] ? column.value(*s.metrics[column.region]) : kNaN;
+}
+
+std::string v2_cells(const std::array<double, kRegions>& values) {
+  std::string text;
+  for (double v : values) {
+    char buf[32];
+    std::snprintf(buf, sizeof buf, " %8s", fixed(v, 2).c_str());
+    text += buf;
+  }
+  return text;
+}
+
+std::array<double, kRegions> v2_values(const Score& s) { return {s.v2_percent(0), s.v2_percent(1), s.v2_percent(2)}; }
+
+std::array<double, kRegions> v2_means(const std::vector<const Score*>& c) {
+  std::array<double, kRegions> means;
+  for (int r = 0; r < kRegions; ++r) means[r] = mean_over(c, [r](const Score& s) { return s.v2_percent(r); });
+  return means;
+}
+
+double mean_density(const std::vector<const Score*>& c) {
+  return mean_over(c, [](const Score& s) { return s.density; });
+}
+double mean_ms(const std::vector<const Score*>& c) {
+  return mean_over(c, [](const Score& s) { return s.ms; });
+}
+
+void print_v2_table(const Evaluation& ev) {
+  const std::size_t b = ev.baseline;
+  const std::string threshold = fixed(ev.threshold, 2);
+  const std::string run = "backend " + std::string(to_string(ev.backend)) + ", SIMD " + ev.simd_target + ", threads " +
+                          std::to_string(ev.threads);
+  const int numbers = v2_number_count(ev.column(0, b));
+  const char* plural = numbers == 1 ? "" : "s";
+  if (ev.methods.size() == 1) {
+    // The layout of a single preset stays as it always was.
+    std::printf("%-16s %8s %8s %8s %8s %9s\n", "scene", "nonocc", "all", "disc", "density", "ms");
+    for (std::size_t si = 0; si < ev.scenes.size(); ++si) {
+      const Score& s = ev.results[si][0][b];
+      std::printf("%-16s%s %8.1f %9.1f\n", ev.scenes[si].scene.name.c_str(), v2_cells(v2_values(s)).c_str(), s.density,
+                  s.ms);
+    }
+    const std::vector<const Score*> c = ev.column(0, b);
+    std::printf("%-16s%s %8.1f %9.1f\n", "average", v2_cells(v2_means(c)).c_str(), mean_density(c), mean_ms(c));
+    std::printf("average percent bad (%d number%s, > %s px): %.2f; preset %s, %s\n", numbers, plural,
+                threshold.c_str(), average_percent_bad(c), ev.methods[0].name.c_str(), run.c_str());
+    return;
+  }
+  std::printf("%-16s %-18s %8s %8s %8s %8s %9s\n", "scene", "method", "nonocc", "all", "disc", "density", "ms");
+  for (std::size_t si = 0; si < ev.scenes.size(); ++si)
+    for (std::size_t m = 0; m < ev.methods.size(); ++m) {
+      const Score& s = ev.results[si][m][b];
+      const char* scene = ev.scenes[si].scene.name.c_str();
+      const char* method = ev.methods[m].name.c_str();
+      if (s.scored)
+        std::printf("%-16s %-18s%s %8.1f %9.1f\n", scene, method, v2_cells(v2_values(s)).c_str(), s.density, s.ms);
+      else
+        std::printf("%-16s %-18s %8s %8s %8s %8s %9s  (%s)\n", scene, method, "-", "-", "-", "-", "-",
+                    s.skip_reason.c_str());
+    }
+  std::string averages;
+  for (std::size_t m = 0; m < ev.methods.size(); ++m) {
+    const std::vector<const Score*> c = ev.column(m, b);
+    std::printf("%-16s %-18s%s %8s %9s\n", "average", ev.methods[m].name.c_str(), v2_cells(v2_means(c)).c_str(),
+                fixed(mean_density(c), 1).c_str(), fixed(mean_ms(c), 1).c_str());
+    averages += (m ? ", " : "") + ev.methods[m].name + " " + fixed(average_percent_bad(c), 2);
+  }
+  std::printf("average percent bad (%d number%s each, > %s px): %s; %s\n", numbers, plural, threshold.c_str(),
+              averages.c_str(), run.c_str());
+}
+
+void print_v3_table(const Evaluation& ev) {
+  std::printf("\nMiddlebury v3 (nonocc region) and KITTI D1 (nonocc, all):\n%-16s %-18s", "scene", "method");
+  for (const V3Column& column : kV3Columns) std::printf(" %7s", column.header);
+  std::printf("\n");
+  const auto row = [](const std::string& scene, const std::string& method, const auto& value) {
+    std::printf("%-16s %-18s", scene.c_str(), method.c_str());
+    for (const V3Column& column : kV3Columns) std::printf(" %7s", fixed(value(column), 2).c_str());
+    std::printf("\n");
+  };
+  for (std::size_t si = 0; si < ev.scenes.size(); ++si)
+    for (std::size_t m = 0; m < ev.methods.size(); ++m) {
+      const Score& s = ev.results[si][m][ev.baseline];
+      if (s.scored)
+        row(ev.scenes[si].scene.name, ev.methods[m].name, [&](const V3Column& column) { return v3_value(s, column); });
+    }
+  if (ev.scenes.size() > 1)
+    for (std::size_t m = 0; m < ev.methods.size(); ++m) {
+      const std::vector<const Score*> c = ev.column(m, ev.baseline);
+      row("average", ev.methods[m].name, [&](const V3Column& column) {
+        return mean_over(c, [&](const Score& s) { return v3_value(s, column); });
+      });
+    }
+  std::printf("bad-N and D1 count pixels without a disparity as bad; avgerr and rms (px) cover the pixels with one, "
+              "invalid the others.\n");
+
+  std::vector<std::string> derived, ground_truth_only;
+  for (const SceneData& s : ev.scenes) {
+    if (s.mask_source == "derived-lr-check") derived.push_back(s.scene.name);
+    if (s.mask_source == "ground-truth-only") ground_truth_only.push_back(s.scene.name);
+  }
+  if (!derived.empty())
+    std::printf("masks of %s: nonocc derived by the left-right check of the two views' ground truths (right ground "
+                "truth at x - round(d) known and within 1 px of d), all = pixels with ground truth, no disc mask "
+                "('-').\n",
+                joined(derived).c_str());
+  if (!ground_truth_only.empty())
+    std::printf("masks of %s: none and no right ground truth: all = pixels with ground truth, no nonocc or disc "
+                "('-').\n",
+                joined(ground_truth_only).c_str());
+}
+
+std::string census_label(const Method& m) {
+  if (m.peer) return "-";
+  const std::string side = std::to_string(m.params.census_window);
+  return std::string(m.params.census == CensusKind::Census ? "CT " : "MCT ") + side + "x" + side;
+}
+
+// The exposure study: the table of steps x methods, each method's degradation, and the CT presets
+// against the MCT presets. Returns the "radiometric" block of the JSON report.
+Json report_study(const Evaluation& ev) {
+  const std::size_t b = ev.baseline;
+  const std::vector<RadiometricChange>& steps = ev.steps;
+  const std::vector<Method>& methods = ev.methods;
+  // study[m][k]: the average percent bad of method m over the scenes at step k.
+  std::vector<std::vector<double>> study(methods.size(), std::vector<double>(steps.size()));
+  for (std::size_t m = 0; m < methods.size(); ++m)
+    for (std::size_t k = 0; k < steps.size(); ++k) study[m][k] = average_percent_bad(ev.column(m, k));
+
+  std::printf("\nExposure study: the right image changed, the left one not; cell = average percent bad (mean of the "
+              "%d v2 numbers, > %s px)\n%-16s",
+              v2_number_count(ev.column(0, b)), fixed(ev.threshold, 2).c_str(), "step");
+  std::vector<int> widths;
+  for (const Method& m : methods) {
+    widths.push_back(std::max<int>(8, static_cast<int>(m.name.size())));
+    std::printf(" %*s", widths.back(), m.name.c_str());
+  }
+  std::printf("\n");
+  Json steps_json = Json::array();
+  for (std::size_t k = 0; k < steps.size(); ++k) {
+    std::printf("%-16s", steps[k].label().c_str());
+    Json scores = Json::object();
+    for (std::size_t m = 0; m < methods.size(); ++m) {
+      std::printf(" %*s", widths[m], fixed(study[m][k], 2).c_str());
+      scores.set(methods[m].name, optional_number(study[m][k]));
+    }
+    std::printf("\n");
+    Json j = Json::object();
+    j.set("step", steps[k].label());
+    j.set("kind", kind_name(steps[k].kind));
+    j.set("amount", steps[k].amount);
+    j.set("scores", std::move(scores));
+    steps_json.push_back(std::move(j));
+  }
+
+  std::printf("\n%-18s %-8s %9s %9s %-16s %9s %9s %9s\n", "method", "census", "baseline", "worst", "worst step", "mean",
+              "worst+", "mean+");
+  Json summary_json = Json::array();
+  std::vector<Degradation> degradation;
+  for (std::size_t m = 0; m < methods.size(); ++m) {
+    const Degradation d = degradation.emplace_back(summarize_degradation(study[m], b));
+    const std::string worst_step = steps[d.worst_step].label();
+    std::printf("%-18s %-8s %9s %9s %-16s %9s %9s %9s\n", methods[m].name.c_str(), census_label(methods[m]).c_str(),
+                fixed(d.baseline, 2).c_str(), fixed(d.worst, 2).c_str(), worst_step.c_str(), fixed(d.mean, 2).c_str(),
+                signed_fixed(d.worst_degradation, 2).c_str(), signed_fixed(d.mean_degradation, 2).c_str());
+    Json j = Json::object();
+    j.set("method", methods[m].name);
+    j.set("kind", ev.kind(m));
+    j.set("census", methods[m].peer ? Json() : Json(methods[m].params.census == CensusKind::Census ? "ct" : "mct"));
+    j.set("baseline", optional_number(d.baseline));
+    j.set("worst", optional_number(d.worst));
+    j.set("worst_step", worst_step);
+    j.set("mean", optional_number(d.mean));
+    j.set("worst_degradation", optional_number(d.worst_degradation));
+    j.set("mean_degradation", optional_number(d.mean_degradation));
+    summary_json.push_back(std::move(j));
+  }
+  std::printf("worst+, mean+: points of percent bad above the baseline (the unchanged pair); mean over the %zu "
+              "changes.\n",
+              steps.size() - 1);
+
+  // The CT presets against the MCT presets: each group's numbers are the means over its presets.
+  struct Group {
+    std::vector<std::size_t> members;
+    double mean_degradation = 0.0, worst_degradation = 0.0;
+    std::string names;
+  };
+  std::array<Group, 2> groups;  // 0: CT, 1: MCT
+  for (std::size_t m = 0; m < ev.preset_count; ++m)
+    groups[methods[m].params.census == CensusKind::Census ? 0 : 1].members.push_back(m);
+  for (Group& g : groups)
+    for (std::size_t m : g.members) {
+      g.mean_degradation += degradation[m].mean_degradation / g.members.size();
+      g.worst_degradation += degradation[m].worst_degradation / g.members.size();
+      g.names += (g.names.empty() ? "" : ", ") + methods[m].name;
+    }
+  std::string conclusion;
+  Json by_change = Json::object();
+  if (groups[0].members.empty() || groups[1].members.empty()) {
+    conclusion = std::string("Only ") + (groups[0].members.empty() ? "MCT" : "CT") +
+                 " presets were run: no comparison of the census variants (run every preset, or list CT and MCT "
+                 "presets in --preset).";
+  } else {
+    const bool mct_better = groups[1].mean_degradation < groups[0].mean_degradation;
+    const Group& better = groups[mct_better ? 1 : 0];
+    const Group& worse = groups[mct_better ? 0 : 1];
+    conclusion = std::string(mct_better ? "MCT" : "CT") + " presets (" + better.names + ") degrade least: " +
+                 fixed(better.mean_degradation, 2) + " points of percent bad on average over the changes (worst " +
+                 fixed(better.worst_degradation, 2) + "), against " + fixed(worse.mean_degradation, 2) + " (worst " +
+                 fixed(worse.worst_degradation, 2) + ") for the " + (mct_better ? "CT" : "MCT") + " presets (" +
+                 worse.names + "): " + fixed(worse.mean_degradation - better.mean_degradation, 2) +
+                 " points less on average, and " +
+                 fixed(std::fabs(worse.worst_degradation - better.worst_degradation), 2) +
+                 (better.worst_degradation <= worse.worst_degradation ? " less" : " more") + " at the worst step.";
+    // By kind of change: each group's mean of (score - baseline) over the steps of that kind.
+    std::string by_kind;
+    for (RadiometricKind kind : {RadiometricKind::Gain, RadiometricKind::Bias, RadiometricKind::Gamma,
+                                 RadiometricKind::Vignetting, RadiometricKind::Noise}) {
+      std::array<double, 2> mean{0.0, 0.0};
+      int count = 0;
+      for (std::size_t k = 0; k < steps.size(); ++k) {
+        if (steps[k].kind != kind) continue;
+        ++count;
+        for (int g = 0; g < 2; ++g)
+          for (std::size_t m : groups[g].members) mean[g] += (study[m][k] - study[m][b]) / groups[g].members.size();
+      }
+      if (count == 0) continue;
+      Json j = Json::object();
+      j.set("ct", mean[0] / count);
+      j.set("mct", mean[1] / count);
+      by_change.set(kind_name(kind), std::move(j));
+      by_kind += (by_kind.empty() ? "" : ", ") + kind_name(kind) + " " + signed_fixed(mean[0] / count, 2) + " / " +
+                 signed_fixed(mean[1] / count, 2);
+    }
+    std::printf("mean degradation by change, CT / MCT presets: %s\n", by_kind.c_str());
+  }
+  std::printf("%s\n", conclusion.c_str());
+
+  Json study_json = Json::object();
+  study_json.set("headline", "average percent bad: the mean of the v2 numbers (bad > threshold in nonocc, all, disc) "
+                             "of every scene");
+  study_json.set("seed", "1 + the scene's index (0-based, scenes in path order)");
+  study_json.set("steps", std::move(steps_json));
+  study_json.set("summary", std::move(summary_json));
+  study_json.set("by_change", std::move(by_change));
+  study_json.set("conclusion", conclusion);
+  return study_json;
+}
+
+Json scene_json(const Evaluation& ev, std::size_t si) {
+  const SceneData& s = ev.scenes[si];
+  const Score& first = ev.results[si][0][ev.baseline];
+  Json j = Json::object();
+  j.set("scene", s.scene.name);
+  j.set("set", s.scene.set);
+  j.set("path", s.scene.folder.string());
+  j.set("width", s.left.cols);
+  j.set("height", s.left.rows);
+  j.set("min_disparity", first.min_disparity);
+  j.set("num_disparities", first.num_disparities);
+  for (int r = 0; r < kRegions; ++r) j.set(kRegionNames[r], optional_number(first.v2_percent(r)));
+  j.set("density", first.density);
+  j.set("ms", first.ms);
+  Json pixels = Json::object();
+  for (int r = 0; r < kRegions; ++r) pixels.set(kRegionNames[r], first.v2[r] ? Json(first.v2[r]->pixels) : Json());
+  j.set("pixels", std::move(pixels));
+  j.set("mask_source", s.mask_source);
+  Json regions = Json::array();
+  for (int r = 0; r < kRegions; ++r)
+    if (!s.masks[r].empty()) regions.push_back(kRegionNames[r]);
+  j.set("regions", std::move(regions));
+  Json per_method = Json::array();
+  for (std::size_t m = 0; m < ev.methods.size(); ++m) {
+    const Score& score = ev.results[si][m][ev.baseline];
+    Json e = Json::object();
+    e.set("method", ev.methods[m].name);
+    e.set("kind", ev.kind(m));
+    if (!score.scored) {
+      e.set("skipped", score.skip_reason);
+      per_method.push_back(std::move(e));
+      continue;
+    }
+    e.set("min_disparity", score.min_disparity);
+    e.set("num_disparities", score.num_disparities);
+    for (int r = 0; r < kRegions; ++r) e.set(kRegionNames[r], optional_number(score.v2_percent(r)));
+    e.set("average_percent_bad", optional_number(score.average_percent_bad()));
+    e.set("density", score.density);
+    e.set("ms", score.ms);
+    Json metrics = Json::object();
+    for (int r = 0; r < kRegions; ++r)
+      if (score.metrics[r]) metrics.set(kRegionNames[r], region_metrics_json(*score.metrics[r]));
+    e.set("metrics", std::move(metrics));
+    if (ev.steps.size() > 1) {
+      Json per_step = Json::array();
+      for (std::size_t k = 0; k < ev.steps.size(); ++k) {
+        const Score& t = ev.results[si][m][k];
+        Json st = Json::object();
+        st.set("step", ev.steps[k].label());
+        for (int r = 0; r < kRegions; ++r) st.set(kRegionNames[r], optional_number(t.v2_percent(r)));
+        st.set("average_percent_bad", optional_number(t.average_percent_bad()));
+        st.set("d1_all", optional_number(v3_value(t, kV3Columns.back())));
+        per_step.push_back(std::move(st));
+      }
+      e.set("steps", std::move(per_step));
+    }
+    per_method.push_back(std::move(e));
+  }
+  j.set("methods", std::move(per_method));
+  return j;
+}
+
+// A method's means over the scenes: the v2 numbers, density and ms, and with `v3` the v3 and D1 columns.
+Json average_json(const Evaluation& ev, std::size_t m, bool v3) {
+  const std::vector<const Score*> c = ev.column(m, ev.baseline);
+  const std::array<double, kRegions> v2 = v2_means(c);
+  Json a = Json::object();
+  for (int r = 0; r < kRegions; ++r) a.set(kRegionNames[r], optional_number(v2[r]));
+  a.set("density", optional_number(mean_density(c)));
+  a.set("ms", optional_number(mean_ms(c)));
+  if (v3)
+    for (const V3Column& column : kV3Columns)
+      a.set(column.key, optional_number(mean_over(c, [&](const Score& s) { return v3_value(s, column); })));
+  return a;
+}
+
+Json settings_json(const Evaluation& ev, int threads_requested) {
+  Json settings = Json::object();
+  settings.set("cpu_model", cpu_model());
+  settings.set("cores_online", static_cast<long>(sysconf(_SC_NPROCESSORS_ONLN)));
+  settings.set("simd_target", ev.simd_target);
+  settings.set("backend", to_string(ev.backend));
+  settings.set("threads_requested", threads_requested);
+  settings.set("threads", ev.threads);
+  settings.set("opencv_threads", cv::getNumThreads());
+  settings.set("compiler", compiler_version());
+  settings.set("build_type", build_type());
+  settings.set("date", utc_date());
+  settings.set("mctstereo_version", MCTSTEREO_VERSION);
+  settings.set("opencv_version", CV_VERSION);
+  settings.set("command_line", command_line());
+  return settings;
 }
 
 }  // namespace
@@ -120,175 +1049,304 @@ std::vector<fs::path> find_scene_folders(const fs::path& data) {
 }
 
 EvalCommand::EvalCommand(CLI::App& parent)
-    : command_(parent.add_subcommand("eval", "score the matcher on Middlebury v2 scenes (bad pixels > 1 px)")),
+    : command_(parent.add_subcommand("eval", "score presets (and OpenCV) on Middlebury scenes: v2, v3, KITTI D1")),
       parameters_(*command_) {
   CLI::App& app = *command_;
   app.footer(kEvalFooter);
+  std::string presets;
+  for (const std::string& name : preset_names())
+    presets += "\n  " + name + ": " + std::string(preset_description(name));
+  app.get_option("--preset")
+      ->description("named parameter set, applied before the other parameter flags (default balanced; with "
+                    "--radiometric every preset); a comma-separated list scores each:" +
+                    presets);
   app.add_option("DATA", data_, "a scene folder, or a folder searched recursively for scene folders")->required();
-  app.add_option("--json", json_, "also write the scores, averages and parameters to this JSON file");
+  app.add_option("--json", json_, "also write every score, the masks' source, the settings (and the study) to this "
+                                  "JSON file");
   app.add_option("--threshold", threshold_, "a pixel is bad when |d - ground truth| exceeds this, pixels")
       ->check(CLI::Range(0.0, 1000.0))
       ->capture_default_str();
   app.add_option("--repeat", repeat_, "time N frames per scene (after one untimed frame) and report the median")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
+  app.add_flag("--peers", peers_, "also score OpenCV StereoBM and StereoSGBM on the same scenes (gray frames)");
+  app.add_option("--save", save_dir_, "write each scene's disparity preview and error map (PNG) into this folder");
+  app.add_flag("--radiometric", radiometric_,
+               "exposure study: change the right image (gain, bias, gamma, vignetting, noise) and score again");
+  app.add_flag("-q,--quiet", quiet_, "no progress line on stderr");
   run_flags_.add_to(app);
 }
 
+StereoParams EvalCommand::resolve_preset(const std::string& name) const {
+  // ParameterFlags applies its flags on top of the preset bound to --preset: setting that
+  // option's value to one name of the list gives the preset with the flags, as for a single one.
+  command_->get_option("--preset")->default_val(name);
+  return parameters_.resolve();
+}
+
 void EvalCommand::run() const {
-  const StereoParams base = parameters_.resolve();
   const Backend backend = run_flags_.parsed_backend();
+
+  // The methods: each preset of the list (every preset by default for the study), then the peers.
+  std::vector<std::string> preset_list;
+  const bool preset_given = command_->get_option("--preset")->count() > 0;
+  if (!preset_given && radiometric_) {
+    preset_list = preset_names();
+  } else {
+    std::stringstream list(parameters_.preset_name());
+    for (std::string name; std::getline(list, name, ',');) {
+      name = trim(name);
+      if (name.empty()) throw UsageError("--preset: empty name in the list '" + parameters_.preset_name() + "'");
+      if (std::find(preset_list.begin(), preset_list.end(), name) == preset_list.end()) preset_list.push_back(name);
+    }
+    if (preset_list.empty()) throw UsageError("--preset: no preset given");
+  }
+  Evaluation ev;
+  ev.backend = backend;
+  ev.threshold = threshold_;
+  ev.simd_target = backend == Backend::Reference ? "scalar" : "";
+  std::vector<Method>& methods = ev.methods;
+  for (const std::string& name : preset_list) {
+    const StereoParams params = resolve_preset(name);  // UsageError for an unknown preset
+    check_parameters(params);
+    methods.push_back({name, false, params});
+  }
+  const std::size_t preset_count = ev.preset_count = methods.size();
+  if (peers_)
+    for (const Peer& p : make_peers(0, 16)) methods.push_back({p.name, true, {}});
+
   if (!json_.empty()) check_output_path(json_, {}, "JSON report");
+  if (!save_dir_.empty()) {
+    std::error_code ec;
+    if (fs::exists(save_dir_, ec) && !fs::is_directory(save_dir_, ec))
+      throw RuntimeError("--save " + in_quotes(save_dir_) + " is not a folder");
+  }
 
   const std::vector<fs::path> folders = find_scene_folders(data_);
   if (folders.empty())
     throw RuntimeError("no scene under " + in_quotes(data_) + ": a scene folder holds a scene.txt (see data/README.md)");
 
-  std::vector<SceneResult> results;
-  Json skipped = Json::array();
-  std::string simd_target;
-  int threads = 0;
+  // Every scene is read and checked before anything is matched.
+  std::vector<SceneData>& scenes = ev.scenes;
+  std::vector<std::string> inputs;
   for (const fs::path& folder : folders) {
-    Scene scene;
-    scene.folder = folder;
-    scene.keys = read_scene_file(folder / "scene.txt");
-    scene.name = scene.keys.count("scene") ? scene.keys["scene"] : folder.filename().string();
-    scene.set = scene.keys.count("set") ? scene.keys["set"] : "";
+    scenes.push_back(load_scene(folder));
+    const SceneData& s = scenes.back();
+    inputs.insert(inputs.end(), s.files.begin(), s.files.end());
+  }
+  // The range every method searches on a scene: the scene's own, or --min-disparity and
+  // --num-disparities where given (every preset holds their values then).
+  const auto range_of = [&](const SceneData& s) {
+    return std::pair{parameters_.given("--min-disparity") ? methods[0].params.min_disparity : s.min_disparity,
+                     parameters_.given("--num-disparities") ? methods[0].params.num_disparities : s.num_disparities};
+  };
+  const auto preset_params = [&](const Method& m, const SceneData& s) {
+    StereoParams params = m.params;
+    std::tie(params.min_disparity, params.num_disparities) = range_of(s);
+    return params;
+  };
+  for (const SceneData& s : scenes)
+    for (std::size_t m = 0; m < preset_count; ++m)
+      check_parameters(preset_params(methods[m], s), s.left.cols, s.left.rows);
 
-    std::vector<std::string> masks;
-    std::istringstream mask_list(scene.keys.count("masks") ? scene.keys["masks"] : "none");
-    for (std::string m; mask_list >> m;)
-      if (m != "none") masks.push_back(m);
-    if (masks.size() != 3) {
-      std::cerr << "mctstereo: note: skipping scene " << scene.name << " (" << folder.string()
-                << "): no nonocc, all and disc masks; the Middlebury v2 scores need them\n";
-      Json s = Json::object();
-      s.set("scene", scene.name);
-      s.set("path", folder.string());
-      s.set("reason", "no nonocc/all/disc masks");
-      skipped.push_back(std::move(s));
-      continue;
-    }
+  // --save: one name per scene and method, none of them an input.
+  std::vector<std::string> scene_names;
+  for (const SceneData& s : scenes) scene_names.push_back(file_name_part(s.scene.name));
+  const auto save_path = [&](std::size_t scene, std::size_t method, const std::string& what) {
+    const bool plain = method < preset_count && preset_count == 1;
+    const std::string stem = scene_names[scene] + (plain ? "" : "_" + file_name_part(methods[method].name));
+    return (fs::path(save_dir_) / (stem + "_" + what + ".png")).string();
+  };
+  if (!save_dir_.empty()) {
+    for (std::size_t i = 0; i < scenes.size(); ++i)
+      for (std::size_t j = 0; j < i; ++j)
+        if (scene_names[i] == scene_names[j])
+          throw UsageError("--save: scenes " + in_quotes(scenes[j].scene.folder) + " and " +
+                           in_quotes(scenes[i].scene.folder) + " are both named '" + scenes[i].scene.name +
+                           "': their files would overwrite each other");
+    std::error_code ec;
+    std::vector<std::pair<std::string, std::string>> outputs{{"--json", json_}};
+    for (std::size_t i = 0; i < scenes.size(); ++i)
+      for (std::size_t m = 0; m < methods.size(); ++m)
+        for (const char* what : {"disparity", "errors"}) {
+          const std::string path = save_path(i, m, what);
+          if (fs::is_directory(save_dir_, ec)) check_output_path(path, inputs, "--save file");
+          outputs.push_back({"--save", path});
+        }
+    check_distinct_outputs(outputs);
+  }
+  if (!json_.empty()) check_output_path(json_, inputs, "JSON report");
 
-    const cv::Mat left = read_input_image(scene.file(scene.key("left")), "left image of scene " + scene.name);
-    const cv::Mat right = read_input_image(scene.file(scene.key("right")), "right image of scene " + scene.name);
-    if (left.size() != right.size())
-      throw RuntimeError("scene " + scene.name + ": left image is " + std::to_string(left.cols) + "x" +
-                         std::to_string(left.rows) + ", right image " + std::to_string(right.cols) + "x" +
-                         std::to_string(right.rows));
-    const std::string gt_path = scene.file(scene.key("gt"));
-    const cv::Mat gt_raw = read_gray_image(gt_path, "ground truth of scene " + scene.name);
-    if (gt_raw.size() != left.size())
-      throw RuntimeError("ground truth " + in_quotes(gt_path) + " is " + std::to_string(gt_raw.cols) + "x" +
-                         std::to_string(gt_raw.rows) + ", the scene's images " + std::to_string(left.cols) + "x" +
-                         std::to_string(left.rows));
-    const double gt_scale = scene.number("gt_scale");
-    if (!(gt_scale > 0)) throw RuntimeError("scene " + scene.name + ": gt_scale must be positive");
-    const int gt_invalid = scene.keys.count("gt_invalid") ? static_cast<int>(scene.number("gt_invalid")) : 0;
-    // Ground truth in pixels; NaN marks the pixels without one, which the metrics leave out.
-    cv::Mat gt(gt_raw.size(), CV_32FC1);
-    for (int y = 0; y < gt.rows; ++y)
-      for (int x = 0; x < gt.cols; ++x) {
-        const int v = gt_raw.at<std::uint8_t>(y, x);
-        gt.at<float>(y, x) = v == gt_invalid ? std::numeric_limits<float>::quiet_NaN()
-                                             : static_cast<float>(v / gt_scale);
+  // The steps of the study; without --radiometric only the unchanged pair.
+  ev.steps = radiometric_ ? exposure_study_steps() : std::vector<RadiometricChange>{RadiometricChange{}};
+  const std::vector<RadiometricChange>& steps = ev.steps;
+  const auto identity = std::find_if(steps.begin(), steps.end(),
+                                     [](const RadiometricChange& c) { return c.kind == RadiometricKind::Identity; });
+  ev.baseline = identity == steps.end() ? 0 : static_cast<std::size_t>(identity - steps.begin());
+  const std::size_t baseline_step = ev.baseline;
+
+  if (run_flags_.threads > 0) cv::setNumThreads(run_flags_.threads);
+  ev.results.assign(scenes.size(),
+                    std::vector<std::vector<Score>>(methods.size(), std::vector<Score>(steps.size())));
+  auto& results = ev.results;
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> saved;  // --save: path, bytes
+  Json skipped = Json::array();
+  Progress progress(!quiet_);
+
+  for (std::size_t si = 0; si < scenes.size(); ++si) {
+    const SceneData& s = scenes[si];
+    progress.scene("scene " + std::to_string(si + 1) + "/" + std::to_string(scenes.size()) + " " + s.scene.name +
+                   " (" + size_text(s.left.size()) + ", disparities " + std::to_string(s.min_disparity) + ".." +
+                   std::to_string(s.min_disparity + s.num_disparities - 1) + ")");
+    // The right image of every step, changed once and matched by every method. The seed depends on
+    // the scene only, so the noise of a scene is the same for every method and amount.
+    const std::uint32_t seed = static_cast<std::uint32_t>(1 + si);
+    std::vector<cv::Mat> right(steps.size()), right_gray(steps.size());
+    for (std::size_t k = 0; k < steps.size(); ++k) {
+      if (steps[k].kind == RadiometricKind::Identity) {
+        right[k] = s.right;
+        right_gray[k] = s.right_gray;
+        continue;
       }
-    const cv::Mat nonocc = read_mask(scene, masks[0], left.size());
-    const cv::Mat all = read_mask(scene, masks[1], left.size());
-    const cv::Mat disc = read_mask(scene, masks[2], left.size());
-
-    StereoParams params = base;
-    const int max_disp = static_cast<int>(std::ceil(scene.number("max_disp")));
-    if (!parameters_.given("--min-disparity")) params.min_disparity = 0;
-    if (!parameters_.given("--num-disparities")) params.num_disparities = max_disp - params.min_disparity + 1;
-    check_parameters(params, left.cols, left.rows);
-
-    MatcherOptions options;
-    options.threads = run_flags_.threads;
-    Matcher matcher(left.cols, left.rows, params, backend, options);
-    // One untimed frame first: the first compute() also pays for page faults and thread start-up.
-    std::vector<double> frame_ms;
-    for (int frame = -1; frame < repeat_; ++frame) {
-      matcher.compute(image_view(left), image_view(right));
-      if (frame >= 0) frame_ms.push_back(matcher.timings().back().ms);
+      right[k] = s.right.clone();
+      apply_radiometric(steps[k], right[k].data, right[k].cols, right[k].rows,
+                        static_cast<std::ptrdiff_t>(right[k].step[0]), right[k].channels(), seed);
+      right_gray[k] = to_gray(right[k]);
     }
-    simd_target = matcher.simd_target();
-    threads = matcher.threads();
 
-    SceneResult r;
-    r.scene = scene;
-    r.width = left.cols;
-    r.height = left.rows;
-    r.params = params;
-    r.score = score_middlebury_v2(matcher.disparity(), map_view<float>(gt), map_view<std::uint8_t>(nonocc),
-                                  map_view<std::uint8_t>(all), map_view<std::uint8_t>(disc), threshold_);
-    r.ms = median(frame_ms);
-    results.push_back(std::move(r));
+    for (std::size_t mi = 0; mi < methods.size(); ++mi) {
+      const Method& method = methods[mi];
+      const auto detail = [&](std::size_t k) {
+        std::string text = method.name + " (" + std::to_string(mi + 1) + "/" + std::to_string(methods.size()) + ")";
+        if (steps.size() > 1) text += ", " + steps[k].label();
+        progress.detail(text);
+      };
+      // One untimed frame first at the baseline (page faults, thread start-up), then --repeat timed.
+      const auto frames_of = [&](std::size_t k) { return k == baseline_step ? repeat_ + 1 : 1; };
+      if (!method.peer) {
+        const StereoParams params = preset_params(method, s);
+        MatcherOptions options;
+        options.threads = run_flags_.threads;
+        Matcher matcher(s.left.cols, s.left.rows, params, backend, options);
+        ev.simd_target = matcher.simd_target();
+        ev.threads = matcher.threads();
+        for (std::size_t k = 0; k < steps.size(); ++k) {
+          detail(k);
+          std::vector<double> frame_ms;
+          for (int frame = 0; frame < frames_of(k); ++frame) {
+            matcher.compute(image_view(s.left), image_view(right[k]));
+            if (frame > 0) frame_ms.push_back(matcher.timings().back().ms);
+          }
+          Score& score = results[si][mi][k] = score_estimate(s, matcher.disparity(), threshold_);
+          score.min_disparity = params.min_disparity;
+          score.num_disparities = params.num_disparities;
+          if (k == baseline_step) {
+            score.ms = median(frame_ms);
+            if (!save_dir_.empty()) {
+              const std::string path = save_path(si, mi, "disparity");
+              saved.push_back({path, encode_preview(matcher.disparity_q4(), matcher.invalid_q4(),
+                                                    params.min_disparity, params.max_disparity(), path)});
+              saved.push_back({save_path(si, mi, "errors"), encode_error_map(s, matcher.disparity(), threshold_)});
+            }
+          }
+        }
+      } else {
+        const auto [min_disparity, num_disparities] = range_of(s);
+        Peer peer;
+        for (Peer& p : make_peers(min_disparity, num_disparities))
+          if (p.name == method.name) peer = p;
+        const std::string reason = peer_unsupported_reason(peer, s.left.cols);
+        if (!reason.empty()) {
+          progress.clear();
+          std::cerr << "mctstereo: note: skipping " << method.name << " on scene " << s.scene.name << ": " << reason
+                    << "\n";
+          Json j = Json::object();
+          j.set("scene", s.scene.name);
+          j.set("method", method.name);
+          j.set("reason", reason);
+          skipped.push_back(std::move(j));
+          for (Score& score : results[si][mi]) score.skip_reason = reason;
+          continue;
+        }
+        for (std::size_t k = 0; k < steps.size(); ++k) {
+          detail(k);
+          std::vector<double> frame_ms;
+          cv::Mat estimate;
+          for (int frame = 0; frame < frames_of(k); ++frame) {
+            const auto start = std::chrono::steady_clock::now();
+            estimate = peer_disparity(peer, s.left_gray, right_gray[k]);
+            const auto stop = std::chrono::steady_clock::now();
+            if (frame > 0) frame_ms.push_back(std::chrono::duration<double, std::milli>(stop - start).count());
+          }
+          const MapView<const float> view = map_view<float>(estimate);
+          Score& score = results[si][mi][k] = score_estimate(s, view, threshold_);
+          score.min_disparity = min_disparity;
+          score.num_disparities = peer.matcher->getNumDisparities();
+          if (k == baseline_step) {
+            score.ms = median(frame_ms);
+            if (!save_dir_.empty()) {
+              const auto invalid = static_cast<std::int16_t>((min_disparity - 1) * kDisparityScale);
+              const cv::Mat q4 = to_q4(view, invalid);
+              const std::string path = save_path(si, mi, "disparity");
+              saved.push_back({path, encode_preview(map_view<std::int16_t>(q4), invalid, min_disparity,
+                                                    min_disparity + num_disparities - 1, path)});
+              saved.push_back({save_path(si, mi, "errors"), encode_error_map(s, view, threshold_)});
+            }
+          }
+        }
+      }
+    }
   }
-  if (results.empty())
-    throw RuntimeError("no scene with Middlebury v2 masks (nonocc, all, disc) under " + in_quotes(data_));
+  progress.clear();
 
-  double sum_nonocc = 0, sum_all = 0, sum_disc = 0, sum_density = 0, sum_ms = 0;
-  std::printf("%-16s %8s %8s %8s %8s %9s\n", "scene", "nonocc", "all", "disc", "density", "ms");
-  Json scenes = Json::array();
-  for (const SceneResult& r : results) {
-    const MiddleburyV2Score& s = r.score;
-    std::printf("%-16s %8.2f %8.2f %8.2f %8.1f %9.1f\n", r.scene.name.c_str(), s.nonocc.percent(), s.all.percent(),
-                s.disc.percent(), s.density_percent, r.ms);
-    sum_nonocc += s.nonocc.percent();
-    sum_all += s.all.percent();
-    sum_disc += s.disc.percent();
-    sum_density += s.density_percent;
-    sum_ms += r.ms;
-    Json j = Json::object();
-    j.set("scene", r.scene.name);
-    j.set("set", r.scene.set);
-    j.set("path", r.scene.folder.string());
-    j.set("width", r.width);
-    j.set("height", r.height);
-    j.set("min_disparity", r.params.min_disparity);
-    j.set("num_disparities", r.params.num_disparities);
-    j.set("nonocc", s.nonocc.percent());
-    j.set("all", s.all.percent());
-    j.set("disc", s.disc.percent());
-    j.set("density", s.density_percent);
-    j.set("ms", r.ms);
-    Json pixels = Json::object();
-    pixels.set("nonocc", s.nonocc.pixels);
-    pixels.set("all", s.all.pixels);
-    pixels.set("disc", s.disc.pixels);
-    j.set("pixels", std::move(pixels));
-    scenes.push_back(std::move(j));
+  print_v2_table(ev);
+  print_v3_table(ev);
+  Json study;
+  if (radiometric_) study = report_study(ev);
+  std::fflush(stdout);
+
+  if (!save_dir_.empty()) {
+    std::error_code ec;
+    fs::create_directories(save_dir_, ec);
+    if (ec) throw RuntimeError("--save: cannot create the folder " + in_quotes(save_dir_) + ": " + ec.message());
+    PendingOutputs outputs;
+    for (const auto& [path, bytes] : saved) outputs.add(path, bytes);
+    outputs.commit();
   }
-  const double n = static_cast<double>(results.size());
-  const double avg_nonocc = sum_nonocc / n, avg_all = sum_all / n, avg_disc = sum_disc / n;
-  // Middlebury's "average percent bad": the mean of all 3 x scenes numbers.
-  const double average_percent_bad = (avg_nonocc + avg_all + avg_disc) / 3.0;
-  std::printf("%-16s %8.2f %8.2f %8.2f %8.1f %9.1f\n", "average", avg_nonocc, avg_all, avg_disc, sum_density / n,
-              sum_ms / n);
-  std::printf("average percent bad (%zu numbers, > %s px): %.2f; preset %s, backend %s, SIMD %s, threads %d\n",
-              3 * results.size(), fixed(threshold_, 2).c_str(), average_percent_bad,
-              parameters_.preset_name().c_str(), std::string(to_string(backend)).c_str(), simd_target.c_str(),
-              threads);
 
   if (!json_.empty()) {
     Json report = Json::object();
-    report.set("preset", parameters_.preset_name());
+    report.set("preset", methods[0].name);
+    Json presets = Json::array(), peers = Json::array();
+    for (const Method& m : methods) (m.peer ? peers : presets).push_back(m.name);
+    report.set("presets", std::move(presets));
+    report.set("peers", std::move(peers));
     report.set("backend", to_string(backend));
-    report.set("simd_target", simd_target);
-    report.set("threads", threads);
+    report.set("simd_target", ev.simd_target);
+    report.set("threads", ev.threads);
     report.set("threshold", static_cast<double>(threshold_));
     // The scenes' own ranges replace these two fields unless they were given as flags.
-    report.set("parameters", parameters_json(base));
-    report.set("scenes", std::move(scenes));
-    Json average = Json::object();
-    average.set("nonocc", avg_nonocc);
-    average.set("all", avg_all);
-    average.set("disc", avg_disc);
-    average.set("density", sum_density / n);
-    average.set("ms", sum_ms / n);
-    report.set("average", std::move(average));
-    report.set("average_percent_bad", average_percent_bad);
+    report.set("parameters", parameters_json(methods[0].params));
+    Json scenes_json = Json::array();
+    for (std::size_t si = 0; si < scenes.size(); ++si) scenes_json.push_back(scene_json(ev, si));
+    report.set("scenes", std::move(scenes_json));
+    report.set("average", average_json(ev, 0, false));
+    report.set("average_percent_bad", optional_number(average_percent_bad(ev.column(0, ev.baseline))));
+    Json methods_json = Json::array();
+    for (std::size_t m = 0; m < methods.size(); ++m) {
+      const std::vector<const Score*> c = ev.column(m, ev.baseline);
+      Json j = Json::object();
+      j.set("method", methods[m].name);
+      j.set("kind", ev.kind(m));
+      if (!methods[m].peer) j.set("parameters", parameters_json(methods[m].params));
+      j.set("scenes", static_cast<int>(std::count_if(c.begin(), c.end(), [](const Score* s) { return s->scored; })));
+      j.set("average", average_json(ev, m, true));
+      j.set("average_percent_bad", optional_number(average_percent_bad(c)));
+      methods_json.push_back(std::move(j));
+    }
+    report.set("methods", std::move(methods_json));
+    if (radiometric_) report.set("radiometric", std::move(study));
+    report.set("settings", settings_json(ev, run_flags_.threads));
     report.set("skipped", std::move(skipped));
     write_json_file(json_, report);
   }

@@ -1,4 +1,6 @@
-// `mctstereo eval DATA`: Middlebury v2 scores of every scene folder under DATA.
+// `mctstereo eval DATA`: scores of every scene folder under DATA against its ground truth
+// (Middlebury v2 and v3, KITTI D1), for one or more presets and the OpenCV peers, optionally under
+// changes of the right image's exposure (--radiometric).
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -27,16 +29,20 @@ class EvalCommand {
   EvalCommand& operator=(const EvalCommand&) = delete;
 
   bool selected() const { return command_->parsed(); }
-  /// Scores every scene, prints the table, writes --json. Throws UsageError / RuntimeError.
+  /// Scores every scene, prints the tables, writes --json and --save. Throws UsageError / RuntimeError.
   void run() const;
 
  private:
+  /// The preset `name` with the parameter flags that were given on top.
+  StereoParams resolve_preset(const std::string& name) const;
+
   CLI::App* command_;
   ParameterFlags parameters_;
   RunFlags run_flags_;
-  std::string data_, json_;
+  std::string data_, json_, save_dir_;
   float threshold_ = 1.0f;
   int repeat_ = 1;
+  bool peers_ = false, radiometric_ = false, quiet_ = false;
 };
 
 }  // namespace mctstereo::app

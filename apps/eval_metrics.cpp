@@ -1,6 +1,7 @@
 #include "eval_metrics.hpp"
 
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -56,6 +57,123 @@ MiddleburyV2Score score_middlebury_v2(MapView<const float> estimate, MapView<con
   // disc.png marks other non-occluded pixels with 128: only 255 belongs to the region.
   s.disc = bad_pixels(estimate, ground_truth, disc, 255, threshold);
   s.density_percent = density_percent(estimate);
+  return s;
+}
+
+double RegionMetrics::average_error() const {
+  const std::int64_t estimated = pixels - invalid;
+  return estimated > 0 ? abs_error_sum / static_cast<double>(estimated) : std::numeric_limits<double>::quiet_NaN();
+}
+
+double RegionMetrics::rms_error() const {
+  const std::int64_t estimated = pixels - invalid;
+  return estimated > 0 ? std::sqrt(squared_error_sum / static_cast<double>(estimated))
+                       : std::numeric_limits<double>::quiet_NaN();
+}
+
+RegionMetrics region_metrics(MapView<const float> estimate, MapView<const float> ground_truth,
+                             MapView<const std::uint8_t> mask, std::uint8_t mask_value) {
+  require_same_size(estimate, ground_truth, "ground truth");
+  require_same_size(estimate, mask, "mask");
+  RegionMetrics r;
+  for (int y = 0; y < estimate.height; ++y) {
+    const float* d = estimate.row(y);
+    const float* gt = ground_truth.row(y);
+    const std::uint8_t* m = mask.row(y);
+    for (int x = 0; x < estimate.width; ++x) {
+      if (m[x] != mask_value || !std::isfinite(gt[x])) continue;
+      ++r.pixels;
+      if (!std::isfinite(d[x])) {
+        ++r.invalid;
+        for (std::int64_t& b : r.bad) ++b;
+        ++r.d1_bad;
+        continue;
+      }
+      // In double: a sum over a few million pixels keeps its precision.
+      const double error = std::fabs(static_cast<double>(d[x]) - static_cast<double>(gt[x]));
+      for (std::size_t i = 0; i < kV3Thresholds.size(); ++i) r.bad[i] += error > kV3Thresholds[i] ? 1 : 0;
+      // KITTI: bad when the error exceeds both 3 px and 5 % of the true disparity.
+      r.d1_bad += error > 3.0 && error > 0.05 * std::fabs(static_cast<double>(gt[x])) ? 1 : 0;
+      r.abs_error_sum += error;
+      r.squared_error_sum += error * error;
+    }
+  }
+  return r;
+}
+
+void known_ground_truth_mask(MapView<const float> ground_truth, MapView<std::uint8_t> mask) {
+  require_same_size(ground_truth, mask, "mask");
+  for (int y = 0; y < ground_truth.height; ++y) {
+    const float* gt = ground_truth.row(y);
+    std::uint8_t* m = mask.row(y);
+    for (int x = 0; x < ground_truth.width; ++x) m[x] = std::isfinite(gt[x]) ? 255 : 0;
+  }
+}
+
+void lr_check_nonocc_mask(MapView<const float> left_ground_truth, MapView<const float> right_ground_truth,
+                          MapView<std::uint8_t> mask, float tolerance) {
+  require_same_size(left_ground_truth, right_ground_truth, "right ground truth");
+  require_same_size(left_ground_truth, mask, "mask");
+  const int w = left_ground_truth.width;
+  for (int y = 0; y < left_ground_truth.height; ++y) {
+    const float* left = left_ground_truth.row(y);
+    const float* right = right_ground_truth.row(y);
+    std::uint8_t* m = mask.row(y);
+    for (int x = 0; x < w; ++x) {
+      m[x] = 0;
+      if (!std::isfinite(left[x])) continue;
+      // In double before rounding: a huge disparity must not overflow the match column.
+      const double xr = static_cast<double>(x) - std::round(static_cast<double>(left[x]));
+      if (!(xr >= 0.0 && xr < w)) continue;
+      const float dr = right[static_cast<int>(xr)];
+      if (std::isfinite(dr) && std::fabs(left[x] - dr) <= tolerance) m[x] = 255;
+    }
+  }
+}
+
+void render_error_map(MapView<const float> estimate, MapView<const float> ground_truth,
+                      MapView<const std::uint8_t> gray, float threshold, MapView<std::uint8_t> bgr) {
+  require_same_size(estimate, ground_truth, "ground truth");
+  require_same_size(estimate, gray, "gray image");
+  require_same_size(estimate, bgr, "error map");
+  for (int y = 0; y < estimate.height; ++y) {
+    const float* d = estimate.row(y);
+    const float* gt = ground_truth.row(y);
+    const std::uint8_t* g = gray.row(y);
+    std::uint8_t* out = bgr.row(y);
+    for (int x = 0; x < estimate.width; ++x, out += 3) {
+      if (!std::isfinite(gt[x])) {
+        const auto dimmed = static_cast<std::uint8_t>(std::lround(g[x] * kErrorMapDimming));
+        out[0] = out[1] = out[2] = dimmed;
+      } else if (!(std::isfinite(d[x]) && std::fabs(d[x] - gt[x]) <= threshold)) {
+        out[0] = 0;
+        out[1] = 0;
+        out[2] = 255;
+      } else {
+        out[0] = out[1] = out[2] = g[x];
+      }
+    }
+  }
+}
+
+Degradation summarize_degradation(const std::vector<double>& scores, std::size_t baseline_step) {
+  if (baseline_step >= scores.size())
+    throw std::invalid_argument("baseline step " + std::to_string(baseline_step) + " of " +
+                                std::to_string(scores.size()) + " scores");
+  Degradation s;
+  s.baseline = scores[baseline_step];
+  s.worst = scores[0];
+  double sum = 0.0;
+  for (std::size_t i = 0; i < scores.size(); ++i) {
+    if (scores[i] > s.worst) {
+      s.worst = scores[i];
+      s.worst_step = i;
+    }
+    if (i != baseline_step) sum += scores[i];
+  }
+  s.mean = scores.size() > 1 ? sum / static_cast<double>(scores.size() - 1) : s.baseline;
+  s.worst_degradation = s.worst - s.baseline;
+  s.mean_degradation = s.mean - s.baseline;
   return s;
 }
 

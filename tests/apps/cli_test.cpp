@@ -23,6 +23,8 @@
 #include <string>
 #include <vector>
 
+#include "radiometric.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -348,6 +350,323 @@ TEST_F(Cli, BenchWritesStereoBmRecords) {
                           "\"estimate_memory_bytes\""})
     EXPECT_NE(json.find(key), std::string::npos) << key << " missing in " << json;
   expect_failure("bench --sizes 64by48", kUsage, "'64by48' is not a size");
+}
+
+// --- eval on synthetic scenes -----------------------------------------------------------------------
+// A textured background plane at disparity 4 and a square in front of it at disparity 10, seen by
+// both cameras, so that the ground truth of both views is exact and the square occludes a band of
+// the background: 6 columns of the left view beside it, and the left border of 4 columns.
+// The eval tests run one thread: OpenMP's waiting threads make a loaded machine many times slower.
+
+constexpr int kSynthWidth = 96, kSynthHeight = 64;
+constexpr int kBackground = 4, kForeground = 10;
+const cv::Rect kSquare(40, 20, 20, 24);  // in the left view
+const cv::Rect kUnknown(70, 0, 4, 4);    // no ground truth in the left view
+const cv::Rect kWrong(70, 8, 16, 8);     // with `wrong_patch`, ground truth 7 instead of 4
+
+struct SyntheticPair {
+  cv::Mat left, right;          // 8-bit gray
+  cv::Mat left_gt, right_gt;    // CV_32F pixels, NaN = unknown
+};
+
+SyntheticPair synthetic_pair(bool wrong_patch) {
+  cv::RNG rng(12345);
+  cv::Mat background(kSynthHeight, kSynthWidth + kForeground, CV_8U);
+  cv::Mat foreground(kSynthHeight, kSynthWidth + kForeground, CV_8U);
+  rng.fill(background, cv::RNG::UNIFORM, 0, 256);
+  rng.fill(foreground, cv::RNG::UNIFORM, 0, 256);
+  SyntheticPair p;
+  p.left.create(kSynthHeight, kSynthWidth, CV_8U);
+  p.right.create(kSynthHeight, kSynthWidth, CV_8U);
+  p.left_gt.create(kSynthHeight, kSynthWidth, CV_32F);
+  p.right_gt.create(kSynthHeight, kSynthWidth, CV_32F);
+  for (int y = 0; y < kSynthHeight; ++y)
+    for (int x = 0; x < kSynthWidth; ++x) {
+      const bool square = kSquare.contains({x, y});
+      p.left.at<std::uint8_t>(y, x) = (square ? foreground : background).at<std::uint8_t>(y, x);
+      p.left_gt.at<float>(y, x) = square ? kForeground : kBackground;
+      if (kUnknown.contains({x, y})) p.left_gt.at<float>(y, x) = NAN;
+      if (wrong_patch && kWrong.contains({x, y})) p.left_gt.at<float>(y, x) = 7;
+      // The right pixel x sees the left column x + d of whichever surface is in front.
+      const bool right_square = kSquare.contains({x + kForeground, y});
+      p.right.at<std::uint8_t>(y, x) = right_square ? foreground.at<std::uint8_t>(y, x + kForeground)
+                                                    : background.at<std::uint8_t>(y, x + kBackground);
+      p.right_gt.at<float>(y, x) = right_square ? kForeground : kBackground;
+    }
+  return p;
+}
+
+// PFM of `values` (NaN written as +INF), little- or big-endian (the sign of the scale says which).
+std::vector<std::uint8_t> pfm_bytes(const cv::Mat& values, bool little_endian) {
+  const std::string header = "Pf\n" + std::to_string(values.cols) + " " + std::to_string(values.rows) + "\n" +
+                             (little_endian ? "-1.0" : "1.0") + "\n";
+  std::vector<std::uint8_t> bytes(header.begin(), header.end());
+  for (int y = values.rows - 1; y >= 0; --y)
+    for (int x = 0; x < values.cols; ++x) {
+      float v = values.at<float>(y, x);
+      if (std::isnan(v)) v = std::numeric_limits<float>::infinity();
+      std::uint32_t bits;
+      std::memcpy(&bits, &v, 4);
+      for (int b = 0; b < 4; ++b)
+        bytes.push_back(static_cast<std::uint8_t>(bits >> (8 * (little_endian ? b : 3 - b))));
+    }
+  return bytes;
+}
+
+// 8-bit PNG of 2 x disparity (gt_scale 2), 0 = unknown.
+cv::Mat png_ground_truth(const cv::Mat& gt) {
+  cv::Mat png(gt.size(), CV_8U);
+  for (int y = 0; y < gt.rows; ++y)
+    for (int x = 0; x < gt.cols; ++x) {
+      const float d = gt.at<float>(y, x);
+      png.at<std::uint8_t>(y, x) = std::isnan(d) ? 0 : static_cast<std::uint8_t>(std::lround(2 * d));
+    }
+  return png;
+}
+
+enum class GroundTruthFile { Png, Png16, Pfm };
+
+// A Middlebury 2005-style scene folder (view1/view5, ground truth of both views, no masks).
+void write_synthetic_scene(const fs::path& folder, const std::string& name, GroundTruthFile format,
+                           bool wrong_patch = false) {
+  fs::create_directories(folder);
+  const SyntheticPair p = synthetic_pair(wrong_patch);
+  ASSERT_TRUE(cv::imwrite((folder / "view1.png").string(), p.left));
+  ASSERT_TRUE(cv::imwrite((folder / "view5.png").string(), p.right));
+  std::string gt_lines;
+  if (format == GroundTruthFile::Png) {
+    ASSERT_TRUE(cv::imwrite((folder / "disp1.png").string(), png_ground_truth(p.left_gt)));
+    ASSERT_TRUE(cv::imwrite((folder / "disp5.png").string(), png_ground_truth(p.right_gt)));
+    gt_lines = "gt=disp1.png\ngt_right=disp5.png\ngt_scale=2\ngt_invalid=0\n";
+  } else if (format == GroundTruthFile::Png16) {
+    // KITTI style: 16 bits, 256 x disparity.
+    cv::Mat left_gt, right_gt;
+    png_ground_truth(p.left_gt).convertTo(left_gt, CV_16U, 128.0);
+    png_ground_truth(p.right_gt).convertTo(right_gt, CV_16U, 128.0);
+    ASSERT_TRUE(cv::imwrite((folder / "disp1.png").string(), left_gt));
+    ASSERT_TRUE(cv::imwrite((folder / "disp5.png").string(), right_gt));
+    gt_lines = "gt=disp1.png\ngt_right=disp5.png\ngt_scale=256\n";
+  } else {
+    write_bytes(folder / "disp1.pfm", pfm_bytes(p.left_gt, true));
+    write_bytes(folder / "disp5.pfm", pfm_bytes(p.right_gt, false));  // the other byte order
+    gt_lines = "gt=disp1.pfm\ngt_right=disp5.pfm\n";
+  }
+  std::ofstream(folder / "scene.txt") << "# synthetic scene\nset=synthetic\nscene=" << name
+                                      << "\nleft=view1.png\nright=view5.png\n"
+                                      << gt_lines << "gt_view=left\nmax_disp=15\nmasks=none\n";
+}
+
+std::string file_text(const fs::path& path) {
+  const std::vector<std::uint8_t> bytes = read_bytes(path);
+  return {bytes.begin(), bytes.end()};
+}
+
+// The `count` numbers after the first line of `output` whose words begin with the words of
+// `label` ("-" reads as NaN); empty when there is no such line.
+std::vector<double> row_numbers(const std::string& output, const std::string& label, int count) {
+  std::vector<std::string> label_words;
+  std::istringstream label_in(label);
+  for (std::string w; label_in >> w;) label_words.push_back(w);
+  std::istringstream lines(output);
+  for (std::string line; std::getline(lines, line);) {
+    std::istringstream in(line);
+    bool match = true;
+    for (const std::string& expected : label_words) {
+      std::string word;
+      if (!(in >> word) || word != expected) match = false;
+    }
+    if (!match) continue;
+    std::vector<double> numbers;
+    for (std::string word; static_cast<int>(numbers.size()) < count && in >> word;)
+      numbers.push_back(word == "-" ? NAN : std::stod(word));
+    return numbers;
+  }
+  return {};
+}
+
+TEST_F(Cli, EvalDerivesNonoccFromBothGroundTruths) {
+  write_synthetic_scene(folder_ / "data/synth", "synth", GroundTruthFile::Png);
+  const Result r = run("eval data --threads 1 --json scores.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const std::vector<double> row = row_numbers(r.output, "synth", 5);  // nonocc all disc density ms
+  ASSERT_EQ(row.size(), 5u) << r.output;
+  EXPECT_LT(row[0], 1.0) << r.output;  // the pair is easy: measured 0.72 nonocc, 0.67 all
+  EXPECT_LT(row[1], 1.0) << r.output;
+  EXPECT_TRUE(std::isnan(row[2])) << "no disc region: '-' expected\n" << r.output;
+  EXPECT_NE(r.output.find("masks of synth: nonocc derived by the left-right check"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("average percent bad (2 numbers"), std::string::npos) << r.output;
+
+  const std::string json = file_text(folder_ / "scores.json");
+  // all: every pixel but the 16 without ground truth. nonocc: less the 6 x 24 background pixels
+  // hidden beside the square and the 4 x 64 whose match lies left of the right image.
+  for (const char* key : {"\"mask_source\": \"derived-lr-check\"",
+                          "\"regions\": [\n        \"nonocc\",\n        \"all\"\n      ]", "\"nonocc\": 5728,",
+                          "\"all\": 6128,", "\"disc\": null", "\"bad_0_5\"", "\"avgerr\"", "\"d1\"", "\"settings\"",
+                          "\"cpu_model\"", "\"command_line\""})
+    EXPECT_NE(json.find(key), std::string::npos) << key << " missing in " << json;
+}
+
+TEST_F(Cli, EvalReadsPfmAnd16BitGroundTruthLike8Bit) {
+  write_synthetic_scene(folder_ / "data/a_png", "synth_png", GroundTruthFile::Png);
+  write_synthetic_scene(folder_ / "data/b_pfm", "synth_pfm", GroundTruthFile::Pfm);
+  write_synthetic_scene(folder_ / "data/c_png16", "synth_png16", GroundTruthFile::Png16);
+  const Result r = run("eval data --threads 1 --preset realtime --json scores.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  // The same pair and ground truth: the same scores, to the last digit (ms aside).
+  const std::vector<double> png = row_numbers(r.output, "synth_png", 4);
+  ASSERT_EQ(png.size(), 4u) << r.output;
+  for (const char* other : {"synth_pfm", "synth_png16"}) {
+    const std::vector<double> row = row_numbers(r.output, other, 4);
+    ASSERT_EQ(row.size(), 4u) << other << "\n" << r.output;
+    EXPECT_EQ(row[0], png[0]) << other;
+    EXPECT_EQ(row[1], png[1]) << other;
+    EXPECT_EQ(row[3], png[3]) << other;
+  }
+  const std::string json = file_text(folder_ / "scores.json");
+  for (const char* scene : {"\"scene\": \"synth_pfm\"", "\"scene\": \"synth_png16\""}) {
+    const std::size_t at = json.find(scene);
+    ASSERT_NE(at, std::string::npos) << json;
+    EXPECT_NE(json.find("\"nonocc\": 5728,", at), std::string::npos) << scene;
+    EXPECT_NE(json.find("\"all\": 6128,", at), std::string::npos) << scene;
+  }
+}
+
+TEST_F(Cli, EvalSaveWritesPreviewAndErrorMap) {
+  write_synthetic_scene(folder_ / "data/synth", "synth", GroundTruthFile::Png, /*wrong_patch=*/true);
+  const Result r = run("eval data --threads 1 --peers --save out/maps");
+  ASSERT_EQ(r.status, 0) << r.output;
+  // One preset: plain names; the peers: with their name.
+  for (const char* name : {"synth_disparity.png", "synth_errors.png", "synth_opencv-stereobm_disparity.png",
+                           "synth_opencv-stereobm_errors.png", "synth_opencv-stereosgbm_disparity.png",
+                           "synth_opencv-stereosgbm_errors.png"}) {
+    const cv::Mat image = cv::imread((folder_ / "out/maps" / name).string(), cv::IMREAD_UNCHANGED);
+    ASSERT_FALSE(image.empty()) << name;
+    EXPECT_EQ(image.size(), cv::Size(kSynthWidth, kSynthHeight)) << name;
+    EXPECT_EQ(image.type(), CV_8UC3) << name;
+  }
+  EXPECT_EQ(folder_listing(folder_ / "out/maps").size(), 6u);  // no temporary left behind
+
+  const cv::Mat errors = cv::imread((folder_ / "out/maps/synth_errors.png").string(), cv::IMREAD_UNCHANGED);
+  const cv::Mat left = cv::imread((folder_ / "data/synth/view1.png").string(), cv::IMREAD_GRAYSCALE);
+  const cv::Vec3b red(0, 0, 255);
+  int red_elsewhere = 0;
+  for (int y = 0; y < kSynthHeight; ++y)
+    for (int x = 0; x < kSynthWidth; ++x) {
+      const cv::Vec3b e = errors.at<cv::Vec3b>(y, x);
+      const int gray = left.at<std::uint8_t>(y, x);
+      if (kWrong.contains({x, y})) {
+        ASSERT_EQ(e, red) << "ground truth 3 px off at " << x << "," << y;  // every method finds 4
+      } else if (kUnknown.contains({x, y})) {
+        const auto dimmed = static_cast<std::uint8_t>(std::lround(gray * 0.4));
+        ASSERT_EQ(e, cv::Vec3b(dimmed, dimmed, dimmed)) << "no ground truth at " << x << "," << y;
+      } else if (e == red) {
+        ++red_elsewhere;
+      } else {
+        ASSERT_EQ(e, cv::Vec3b(gray, gray, gray)) << x << "," << y;
+      }
+    }
+  EXPECT_LT(red_elsewhere, kSynthWidth * kSynthHeight / 50) << "the matcher should get this pair nearly right";
+
+  // Disparity previews: turbo colours, the same range for every method.
+  const cv::Mat preview = cv::imread((folder_ / "out/maps/synth_disparity.png").string(), cv::IMREAD_UNCHANGED);
+  EXPECT_NE(preview.at<cv::Vec3b>(30, 50), preview.at<cv::Vec3b>(5, 20)) << "square and background alike";
+
+  // An existing file in place of the folder is refused before any work.
+  write_bytes(folder_ / "taken", {'x'});
+  expect_failure("eval data --save taken", kRuntime, "--save 'taken' is not a folder");
+}
+
+TEST_F(Cli, EvalPeersAndPresetListsShareOneTable) {
+  const std::string data = shell_quoted(kData.string());
+  const Result r =
+      run("eval " + data + " --threads 1 --preset realtime,balanced --speckle-size 77 --peers --json scores.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const std::vector<double> balanced = row_numbers(r.output, "tsukuba balanced", 3);
+  const std::vector<double> bm = row_numbers(r.output, "tsukuba opencv-stereobm", 3);
+  const std::vector<double> sgbm = row_numbers(r.output, "tsukuba opencv-stereosgbm", 3);
+  ASSERT_EQ(balanced.size(), 3u) << r.output;
+  ASSERT_EQ(bm.size(), 3u) << r.output;
+  ASSERT_EQ(sgbm.size(), 3u) << r.output;
+  ASSERT_FALSE(row_numbers(r.output, "tsukuba realtime", 3).empty()) << r.output;
+  // Measured on Tsukuba: StereoBM 13.70 / 15.63 / 32.82, StereoSGBM 4.18 / 6.28 / 20.03 (OpenCV 4.6).
+  EXPECT_GT(bm[0], 10.0);
+  EXPECT_LT(bm[0], 17.0);
+  EXPECT_GT(sgbm[0], 2.0);
+  EXPECT_LT(sgbm[0], 7.0);
+  EXPECT_LT(balanced[0], 6.0);
+  EXPECT_NE(r.output.find("average percent bad (3 numbers each"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("D1-all"), std::string::npos) << r.output;
+
+  const std::string json = file_text(folder_ / "scores.json");
+  // The flags apply on top of each preset of the list.
+  std::size_t speckle = 0, at = 0;
+  while ((at = json.find("\"speckle_size\": 77", at)) != std::string::npos) ++speckle, ++at;
+  EXPECT_EQ(speckle, 3) << "parameters of the first preset, then of both methods\n" << json;
+  for (const char* key : {"\"preset\": \"realtime\"", "\"presets\": [\n    \"realtime\",\n    \"balanced\"\n  ]",
+                          "\"method\": \"opencv-stereobm\"", "\"method\": \"opencv-stereosgbm\"",
+                          "\"kind\": \"opencv\"", "\"mask_source\": \"files\"", "\"d1_all\""})
+    EXPECT_NE(json.find(key), std::string::npos) << key << " missing in " << json;
+
+  expect_failure("eval " + data + " --preset balanced,fancy", kUsage, "unknown preset 'fancy'");
+  expect_failure("eval " + data + " --preset balanced,,quality", kUsage, "--preset: empty name");
+}
+
+TEST_F(Cli, EvalRejectsBadGroundTruth) {
+  const fs::path scene = folder_ / "data/synth";
+  write_synthetic_scene(scene, "synth", GroundTruthFile::Pfm);
+  const std::vector<std::uint8_t> good = read_bytes(scene / "disp1.pfm");
+
+  fs::remove(scene / "disp1.pfm");
+  expect_failure("eval data", kRuntime, "ground truth of scene synth 'data/synth/disp1.pfm': no such file");
+
+  ASSERT_TRUE(cv::imwrite((scene / "small.png").string(), cv::Mat(40, 50, CV_8U, cv::Scalar(8))));
+  std::ofstream(scene / "scene.txt", std::ios::app) << "gt=small.png\ngt_scale=2\n";
+  expect_failure("eval data", kRuntime, "'data/synth/small.png' is 50x40, the scene's images 96x64");
+
+  std::ofstream(scene / "scene.txt", std::ios::app) << "gt=disp1.pfm\ngt_scale=1\n";
+  write_bytes(scene / "disp1.pfm", {'P', '5', '\n', '9', '6', ' ', '6', '4', '\n', '2', '5', '5', '\n'});
+  expect_failure("eval data", kRuntime, "'data/synth/disp1.pfm' is not a PFM file");
+  std::string header = "Pf\n96 sixty-four\n-1.0\n";
+  write_bytes(scene / "disp1.pfm", {header.begin(), header.end()});
+  expect_failure("eval data", kRuntime, "bad PFM header 'Pf 96 sixty-four -1.0'");
+  header = "Pf\n96 64\n0\n";
+  write_bytes(scene / "disp1.pfm", {header.begin(), header.end()});
+  expect_failure("eval data", kRuntime, "a non-zero scale");
+  header = "PF\n96 64\n-1.0\n";
+  write_bytes(scene / "disp1.pfm", {header.begin(), header.end()});
+  expect_failure("eval data", kRuntime, "colour PFM (PF)");
+  write_bytes(scene / "disp1.pfm", {good.begin(), good.end() - 4});
+  expect_failure("eval data", kRuntime, "truncated PFM: 96x64 needs 24576 bytes of samples, the file has 24572");
+
+  write_bytes(scene / "disp1.pfm", good);
+  fs::remove(scene / "disp5.pfm");
+  expect_failure("eval data", kRuntime, "right ground truth of scene synth 'data/synth/disp5.pfm': no such file");
+}
+
+TEST_F(Cli, EvalRadiometricStudyComparesTheCensusVariants) {
+  write_synthetic_scene(folder_ / "data/synth", "synth", GroundTruthFile::Png);
+  const Result r = run("eval data --threads 1 --radiometric --preset balanced,mr-mct-5x5 --json scores.json");
+  ASSERT_EQ(r.status, 0) << r.output;
+  const std::vector<mctstereo::app::RadiometricChange> steps = mctstereo::app::exposure_study_steps();
+  ASSERT_GT(steps.size(), 5u);
+  for (const mctstereo::app::RadiometricChange& step : steps)
+    EXPECT_EQ(row_numbers(r.output, step.label(), 2).size(), 2u) << step.label() << " row missing\n" << r.output;
+  // The study's baseline is the plain evaluation of the same run.
+  const std::string summary_start = "average percent bad (2 numbers each, > 1.00 px): balanced ";
+  const std::size_t summary = r.output.find(summary_start);
+  ASSERT_NE(summary, std::string::npos) << r.output;
+  const double balanced = std::stod(r.output.substr(summary + summary_start.size()));
+  EXPECT_EQ(row_numbers(r.output, "none", 2)[0], balanced);
+  EXPECT_NE(r.output.find("CT 5x5"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("MCT 5x5"), std::string::npos) << r.output;
+  EXPECT_TRUE(r.output.find("CT presets (balanced) degrade least") != std::string::npos ||
+              r.output.find("MCT presets (mr-mct-5x5) degrade least") != std::string::npos)
+      << r.output;
+
+  const std::string json = file_text(folder_ / "scores.json");
+  for (const char* key : {"\"radiometric\"", "\"summary\"", "\"by_change\"", "\"conclusion\"", "\"worst_degradation\"",
+                          "\"step\": \"gain 0.5\"", "\"census\": \"mct\""})
+    EXPECT_NE(json.find(key), std::string::npos) << key << " missing in " << json;
 }
 
 }  // namespace

@@ -1,7 +1,9 @@
-// The Middlebury v2 metrics of `mctstereo eval` on small maps whose scores are counted by hand.
+// The metrics of `mctstereo eval` (Middlebury v2 and v3, KITTI D1), the masks it derives, its error
+// map and its degradation summary, on small maps whose answers are counted by hand.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 #include <vector>
@@ -102,6 +104,155 @@ TEST(EvalMetrics, MapsOfDifferentSizesAreRejected) {
   EXPECT_THROW(bad_pixels(kEstimate.view(), small.view(), mask.view()), std::invalid_argument);
   const Map<std::uint8_t> small_mask{2, 2, {255, 255, 255, 255}};
   EXPECT_THROW(bad_pixels(kEstimate.view(), kGroundTruth.view(), small_mask.view()), std::invalid_argument);
+}
+
+const Map<std::uint8_t> kWholeMask{4, 3, std::vector<std::uint8_t>(12, 255)};
+
+TEST(EvalMetrics, V3MetricsCountInvalidAsBadAndLeaveThemOutOfTheErrors) {
+  const RegionMetrics m = region_metrics(kEstimate.view(), kGroundTruth.view(), kWholeMask.view());
+  EXPECT_EQ(m.pixels, 11);  // the unknown ground truth at (3,0) is left out
+  EXPECT_EQ(m.invalid, 2);  // (0,1) NaN, (3,1) +INF
+  // Errors of the 9 estimates: 0, 1, 1.5, 0, 0, 0, 3, 0.25, 0; each rate adds the 2 invalid pixels.
+  EXPECT_EQ(m.bad[0], 3 + 2);  // > 0.5: 1, 1.5, 3
+  EXPECT_EQ(m.bad[1], 2 + 2);  // > 1: 1.5, 3
+  EXPECT_EQ(m.bad[2], 1 + 2);  // > 2: 3
+  EXPECT_EQ(m.bad[3], 0 + 2);  // > 4: none
+  EXPECT_DOUBLE_EQ(m.bad_percent(1), 100.0 * 4 / 11);
+  EXPECT_DOUBLE_EQ(m.invalid_percent(), 100.0 * 2 / 11);
+  EXPECT_DOUBLE_EQ(m.average_error(), 5.75 / 9);            // 1 + 1.5 + 3 + 0.25
+  EXPECT_DOUBLE_EQ(m.rms_error(), std::sqrt(12.3125 / 9));  // 1 + 2.25 + 9 + 0.0625
+  EXPECT_EQ(m.d1_bad, 2);  // the error of 3 px is not above 3 px: only the invalid pixels
+  // Bad 1 of v3 is the v2 rate at the default threshold.
+  EXPECT_EQ(m.bad[1], bad_pixels(kEstimate.view(), kGroundTruth.view(), kWholeMask.view()).bad);
+}
+
+TEST(EvalMetrics, V3MetricsOnlyCountTheMaskValue) {
+  const Map<std::uint8_t> mask{4, 3, {255, 0, 255, 255,  //
+                                      0, 0, 0, 255,      //
+                                      0, 255, 0, 0}};
+  // (0,0) error 0, (2,0) error 1.5, (3,0) unknown, (3,1) invalid, (1,2) error 3.
+  const RegionMetrics m = region_metrics(kEstimate.view(), kGroundTruth.view(), mask.view());
+  EXPECT_EQ(m.pixels, 4);
+  EXPECT_EQ(m.invalid, 1);
+  EXPECT_EQ(m.bad[0], 3);
+  EXPECT_EQ(m.bad[3], 1);
+  EXPECT_DOUBLE_EQ(m.average_error(), 4.5 / 3);
+}
+
+TEST(EvalMetrics, D1NeedsMoreThan3PixelsAndMoreThan5Percent) {
+  const Map<float> gt{5, 1, {100, 100, 10, 2, 0}};
+  const Map<float> estimate{5, 1, {103.5f,  // 3.5 px but 3.5 %: good
+                                   106,     // 6 px and 6 %: bad
+                                   13.5f,   // 3.5 px and 35 %: bad
+                                   4.9f,    // 145 % but 2.9 px: good
+                                   3.5f}};  // 3.5 px of a true 0: bad
+  const Map<std::uint8_t> mask{5, 1, std::vector<std::uint8_t>(5, 255)};
+  const RegionMetrics m = region_metrics(estimate.view(), gt.view(), mask.view());
+  EXPECT_EQ(m.d1_bad, 3);
+  EXPECT_DOUBLE_EQ(m.d1_percent(), 60.0);
+  EXPECT_EQ(m.bad[3], 1);  // > 4 px: only the 6 px error
+}
+
+TEST(EvalMetrics, EmptyRegionHasNoErrors) {
+  const Map<std::uint8_t> none{4, 3, std::vector<std::uint8_t>(12, 0)};
+  const RegionMetrics m = region_metrics(kEstimate.view(), kGroundTruth.view(), none.view());
+  EXPECT_EQ(m.pixels, 0);
+  EXPECT_EQ(m.bad_percent(0), 0.0);
+  EXPECT_EQ(m.d1_percent(), 0.0);
+  EXPECT_TRUE(std::isnan(m.average_error()));
+  EXPECT_TRUE(std::isnan(m.rms_error()));
+  // Every pixel of a region without a single estimate: rates 100 %, no average error.
+  const Map<float> nothing{4, 3, std::vector<float>(12, kNaN)};
+  const RegionMetrics all_invalid = region_metrics(nothing.view(), kGroundTruth.view(), kWholeMask.view());
+  EXPECT_DOUBLE_EQ(all_invalid.bad_percent(0), 100.0);
+  EXPECT_DOUBLE_EQ(all_invalid.invalid_percent(), 100.0);
+  EXPECT_TRUE(std::isnan(all_invalid.average_error()));
+}
+
+TEST(EvalMetrics, KnownGroundTruthMaskIsTheAllRegion) {
+  Map<std::uint8_t> mask{4, 3, std::vector<std::uint8_t>(12, 7)};
+  known_ground_truth_mask(kGroundTruth.view(), {mask.values.data(), 4, 3, 4});
+  EXPECT_EQ(mask.values, (std::vector<std::uint8_t>{255, 255, 255, 0, 255, 255, 255, 255, 255, 255, 255, 255}));
+}
+
+TEST(EvalMetrics, LeftRightCheckOfTwoGroundTruthsFindsTheNonOccludedPixels) {
+  // Row 0, left pixel x with ground truth d looks at the right ground truth at x - round(d):
+  //   x=0 unknown; x=1 d=1 -> right[0]=1 agrees; x=2 d=3 -> column -1, outside;
+  //   x=3 d=3 -> right[0]=1, 2 px apart (occluded); x=4 d=2 -> right[2] unknown;
+  //   x=5 d=1.5 -> round 2 -> right[3]=2.5, exactly 1 px apart (kept);
+  //   x=6 d=2.5 -> round half away from zero 3 -> right[3]=2.5 (round to even would give
+  //   right[4]=0.5, 2 px apart); x=7 d=1 -> right[6]=1.
+  // Row 1: negative disparities look right: x=0 d=-1 -> right[1]=-1; x=7 d=-1 -> column 8,
+  // outside; x=3 a huge disparity lands far outside.
+  const Map<float> left{8, 2, {kNaN, 1, 3, 3, 2, 1.5f, 2.5f, 1,  //
+                               -1, kNaN, kNaN, 1e30f, kNaN, kNaN, kNaN, -1}};
+  const Map<float> right{8, 2, {1, 5, kNaN, 2.5f, 0.5f, 7, 1, 9,  //
+                                kNaN, -1, kNaN, kNaN, kNaN, kNaN, kNaN, kNaN}};
+  Map<std::uint8_t> mask{8, 2, std::vector<std::uint8_t>(16, 7)};
+  lr_check_nonocc_mask(left.view(), right.view(), {mask.values.data(), 8, 2, 8});
+  EXPECT_EQ(mask.values, (std::vector<std::uint8_t>{0, 255, 0, 0, 0, 255, 255, 255,  //
+                                                    255, 0, 0, 0, 0, 0, 0, 0}));
+  // A tighter tolerance drops the pixel 1 px apart.
+  lr_check_nonocc_mask(left.view(), right.view(), {mask.values.data(), 8, 2, 8}, 0.5f);
+  EXPECT_EQ(mask.values[5], 0);
+  EXPECT_EQ(mask.values[6], 255);
+}
+
+TEST(EvalMetrics, ErrorMapPaintsBadPixelsRedAndDimsUnknownTruth) {
+  const Map<std::uint8_t> gray{4, 3, {10, 20, 30, 40,  //
+                                      50, 60, 70, 80,  //
+                                      90, 100, 110, 200}};
+  std::vector<std::uint8_t> bgr(4 * 3 * 3, 1);
+  render_error_map(kEstimate.view(), kGroundTruth.view(), gray.view(), 1.0f, {bgr.data(), 4, 3, 12});
+  const auto pixel = [&](int x, int y) {
+    const std::size_t at = static_cast<std::size_t>(y) * 12 + 3 * x;
+    return std::vector<int>{bgr[at], bgr[at + 1], bgr[at + 2]};
+  };
+  const std::vector<int> red{0, 0, 255};
+  EXPECT_EQ(pixel(0, 0), (std::vector<int>{10, 10, 10}));  // exact
+  EXPECT_EQ(pixel(1, 0), (std::vector<int>{20, 20, 20}));  // error 1: not above the threshold
+  EXPECT_EQ(pixel(2, 0), red);                             // error 1.5
+  EXPECT_EQ(pixel(3, 0), (std::vector<int>{16, 16, 16}));  // unknown truth: 40 * 0.4
+  EXPECT_EQ(pixel(0, 1), red);                             // no estimate
+  EXPECT_EQ(pixel(3, 1), red);                             // no estimate (+INF)
+  EXPECT_EQ(pixel(1, 2), red);                             // error 3
+  EXPECT_EQ(pixel(3, 2), (std::vector<int>{200, 200, 200}));
+  // A looser threshold turns the 1.5 px error grey.
+  render_error_map(kEstimate.view(), kGroundTruth.view(), gray.view(), 2.0f, {bgr.data(), 4, 3, 12});
+  EXPECT_EQ(pixel(2, 0), (std::vector<int>{30, 30, 30}));
+  EXPECT_EQ(pixel(1, 2), red);
+}
+
+TEST(EvalMetrics, DegradationAgainstTheBaselineStep) {
+  const Degradation d = summarize_degradation({10, 12, 9, 15, 11, 15}, 0);
+  EXPECT_EQ(d.baseline, 10);
+  EXPECT_EQ(d.worst, 15);
+  EXPECT_EQ(d.worst_step, 3u);  // the first of the two 15s
+  EXPECT_DOUBLE_EQ(d.mean, (12 + 9 + 15 + 11 + 15) / 5.0);
+  EXPECT_DOUBLE_EQ(d.worst_degradation, 5);
+  EXPECT_DOUBLE_EQ(d.mean_degradation, 12.4 - 10);
+  // The baseline need not come first, and a study that only improves has a negative mean.
+  const Degradation better = summarize_degradation({8, 9, 7}, 1);
+  EXPECT_EQ(better.worst, 9);
+  EXPECT_EQ(better.worst_step, 1u);
+  EXPECT_DOUBLE_EQ(better.mean_degradation, 7.5 - 9);
+  const Degradation alone = summarize_degradation({7}, 0);
+  EXPECT_EQ(alone.mean, 7);
+  EXPECT_EQ(alone.mean_degradation, 0);
+  EXPECT_THROW(summarize_degradation({1, 2}, 2), std::invalid_argument);
+}
+
+TEST(EvalMetrics, NewFunctionsRejectMapsOfDifferentSizes) {
+  const Map<float> small{2, 2, {1, 1, 1, 1}};
+  const Map<std::uint8_t> small_mask{2, 2, {255, 255, 255, 255}};
+  EXPECT_THROW(region_metrics(kEstimate.view(), small.view(), kWholeMask.view()), std::invalid_argument);
+  EXPECT_THROW(region_metrics(kEstimate.view(), kGroundTruth.view(), small_mask.view()), std::invalid_argument);
+  std::vector<std::uint8_t> out(12);
+  EXPECT_THROW(lr_check_nonocc_mask(kGroundTruth.view(), small.view(), {out.data(), 4, 3, 4}), std::invalid_argument);
+  EXPECT_THROW(known_ground_truth_mask(kGroundTruth.view(), {out.data(), 2, 2, 2}), std::invalid_argument);
+  std::vector<std::uint8_t> bgr(36);
+  EXPECT_THROW(render_error_map(kEstimate.view(), kGroundTruth.view(), small_mask.view(), 1.0f, {bgr.data(), 4, 3, 12}),
+               std::invalid_argument);
 }
 
 }  // namespace
