@@ -74,6 +74,7 @@
 #include "errors.hpp"
 #include "eval_metrics.hpp"
 #include "io.hpp"
+#include "machine_info.hpp"
 #include "output_files.hpp"
 #include "peers.hpp"
 #include "radiometric.hpp"
@@ -504,17 +505,6 @@ std::string file_name_part(const std::string& name) {
   return out;
 }
 
-std::string kind_name(RadiometricKind kind) {
-  switch (kind) {
-    case RadiometricKind::Identity: return "none";
-    case RadiometricKind::Gain: return "gain";
-    case RadiometricKind::Bias: return "bias";
-    case RadiometricKind::Gamma: return "gamma";
-    case RadiometricKind::Vignetting: return "vignetting";
-    case RadiometricKind::Noise: return "noise";
-  }
-  return "?";
-}
 
 // "[scene 2/6 teddy] balanced, gain 0.5" on stderr: on a terminal one line rewritten in place (and
 // cleared before the tables), otherwise one plain line per scene.
@@ -552,54 +542,6 @@ class Progress {
 };
 
 // --- Settings -------------------------------------------------------------------------------------
-
-std::string cpu_model() {
-  std::ifstream in("/proc/cpuinfo");
-  std::string line;
-  for (const char* key : {"model name", "Model", "Hardware", "cpu model"}) {
-    in.clear();
-    in.seekg(0);
-    while (std::getline(in, line)) {
-      if (line.rfind(key, 0) != 0) continue;
-      const auto colon = line.find(':');
-      if (colon == std::string::npos) continue;
-      const auto start = line.find_first_not_of(" \t", colon + 1);
-      if (start != std::string::npos) return line.substr(start);
-    }
-  }
-  return "unknown";
-}
-
-std::string compiler_version() {
-#if defined(__clang__)
-  return std::string("clang ") + __clang_version__;
-#elif defined(__GNUC__)
-  return std::string("g++ ") + __VERSION__;
-#else
-  return "unknown";
-#endif
-}
-
-std::string build_type() {
-#if defined(MCTSTEREO_BUILD_TYPE)
-  return MCTSTEREO_BUILD_TYPE;
-#elif defined(__OPTIMIZE__) && defined(NDEBUG)
-  return "optimized, NDEBUG (Release-like)";
-#elif defined(__OPTIMIZE__)
-  return "optimized, assertions on";
-#else
-  return "not optimized (Debug-like)";
-#endif
-}
-
-std::string utc_date() {
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  char buf[32];
-  std::strftime(buf, sizeof buf, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return buf;
-}
 
 // The command line of this process, arguments separated by spaces (as /proc/self/cmdline has it).
 std::string command_line() {
@@ -822,7 +764,7 @@ Json report_study(const Evaluation& ev) {
     std::printf("\n");
     Json j = Json::object();
     j.set("step", steps[k].label());
-    j.set("kind", kind_name(steps[k].kind));
+    j.set("kind", radiometric_kind_name(steps[k].kind));
     j.set("amount", steps[k].amount);
     j.set("scores", std::move(scores));
     steps_json.push_back(std::move(j));
@@ -903,9 +845,9 @@ Json report_study(const Evaluation& ev) {
       Json j = Json::object();
       j.set("ct", mean[0] / count);
       j.set("mct", mean[1] / count);
-      by_change.set(kind_name(kind), std::move(j));
-      by_kind += (by_kind.empty() ? "" : ", ") + kind_name(kind) + " " + signed_fixed(mean[0] / count, 2) + " / " +
-                 signed_fixed(mean[1] / count, 2);
+      by_change.set(radiometric_kind_name(kind), std::move(j));
+      by_kind += (by_kind.empty() ? "" : ", ") + std::string(radiometric_kind_name(kind)) + " " +
+                 signed_fixed(mean[0] / count, 2) + " / " + signed_fixed(mean[1] / count, 2);
     }
     std::printf("mean degradation by change, CT / MCT presets: %s\n", by_kind.c_str());
   }

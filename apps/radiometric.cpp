@@ -14,17 +14,6 @@ namespace mctstereo::app {
 
 namespace {
 
-const char* kind_name(RadiometricKind kind) {
-  switch (kind) {
-    case RadiometricKind::Identity: return "none";
-    case RadiometricKind::Gain: return "gain";
-    case RadiometricKind::Bias: return "bias";
-    case RadiometricKind::Gamma: return "gamma";
-    case RadiometricKind::Vignetting: return "vignetting";
-    case RadiometricKind::Noise: return "noise";
-  }
-  return "unknown kind";
-}
 
 // Shortest form that reads back as the same double: 0.75, 2, 1e-05.
 std::string shortest(double value) {
@@ -74,7 +63,7 @@ void check_amount(const RadiometricChange& change) {
                                   std::to_string(static_cast<int>(change.kind)));
   }
   if (rule != nullptr)
-    throw std::invalid_argument(std::string("apply_radiometric: ") + kind_name(change.kind) + " " + shortest(a) +
+    throw std::invalid_argument(std::string("apply_radiometric: ") + radiometric_kind_name(change.kind) + " " + shortest(a) +
                                 " is out of range: " + rule);
 }
 
@@ -127,7 +116,7 @@ std::array<std::uint8_t, 256> value_table(const RadiometricChange& change) {
 std::string RadiometricChange::label() const {
   if (kind == RadiometricKind::Identity) return "none";
   const std::string sign = kind == RadiometricKind::Bias && amount > 0 ? "+" : "";
-  return std::string(kind_name(kind)) + " " + sign + shortest(amount);
+  return std::string(radiometric_kind_name(kind)) + " " + sign + shortest(amount);
 }
 
 std::vector<RadiometricChange> exposure_study_steps() {
@@ -189,6 +178,18 @@ void apply_radiometric(const RadiometricChange& change, std::uint8_t* pixels, in
       return;
     }
   }
+}
+
+const char* radiometric_kind_name(RadiometricKind kind) {
+  switch (kind) {
+    case RadiometricKind::Identity: return "none";
+    case RadiometricKind::Gain: return "gain";
+    case RadiometricKind::Bias: return "bias";
+    case RadiometricKind::Gamma: return "gamma";
+    case RadiometricKind::Vignetting: return "vignetting";
+    case RadiometricKind::Noise: return "noise";
+  }
+  return "unknown kind";
 }
 
 }  // namespace mctstereo::app

@@ -41,6 +41,9 @@ struct RadiometricChange {
   std::string label() const;
 };
 
+/// "none", "gain", "bias", "gamma", "vignetting", "noise".
+const char* radiometric_kind_name(RadiometricKind kind);
+
 /// The steps of the study: the identity first, then each kind over a few amounts: gain 0.5, 0.75,
 /// 1.5, 2; bias -40, -20, +20, +40; gamma 0.5, 0.75, 1.5, 2; vignetting 0.25, 0.5 (corners at 75 %
 /// and 50 % of their brightness); noise 4, 8.
