@@ -41,8 +41,6 @@ std::string compiler_version() {
 #endif
 }
 
-// CMake's build type when the build passes it on; otherwise what the compiler
-// flags tell.
 std::string build_type() {
 #if defined(MCTSTEREO_BUILD_TYPE)
   return MCTSTEREO_BUILD_TYPE;
