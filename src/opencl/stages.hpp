@@ -5,7 +5,7 @@
 #pragma once
 
 #include "opencl/runtime.hpp"
-#include "stages.hpp"
+#include "../stages.hpp"  // src/stages.hpp (a plain "stages.hpp" would name this file)
 
 namespace mctstereo::detail::opencl {
 
