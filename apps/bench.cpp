@@ -2,8 +2,9 @@
 //
 // Every combination of --sizes x --num-disparities x --threads is one group: OpenCV StereoBM and
 // StereoSGBM (apps/peers.hpp, the configuration `eval` compares with) and then every preset on each
-// --backend, all on the same gray frames. The reference backend is single-threaded, so it is timed
-// once per (size, disparities), in the group of the first --threads value. After the timing, one
+// --backend, all on the same gray frames. The reference backend is single-threaded and the opencl
+// backend runs on its device, so they are timed once per (size, disparities), in the group of the
+// first --threads value. --backend auto is resolved first: it times whichever backend it picks. After the timing, one
 // fresh child process per (size, disparities, preset) measures the matcher's peak resident memory.
 //
 // The JSON report (--json), an object:
@@ -13,7 +14,8 @@
 //     "build_type", "date" (UTC, ISO 8601), "mctstereo_version", "opencv_version",
 //     "backend", "threads_requested", "threads", "opencv_threads": the first --backend and
 //       --threads values and the threads they gave (one-value runs read as they always did),
-//     "backends": [..], "thread_settings": [..] (0 = all cores), "num_disparities": [..],
+//     "backends": [..] (auto resolved), "thread_settings": [..] (0 = all cores), "num_disparities": [..],
+//     "opencl_device": "NAME (PLATFORM)" when the opencl backend ran, else absent,
 //     "sizes": ["WxH", ..], "presets": [..],
 //     "warmup_frames", "min_frames", "min_time_s": the flags, before the per-size scaling,
 //     "left_image", "right_image" }
@@ -22,8 +24,11 @@
 //     "opencv"), "width", "height", "num_disparities" (OpenCV: rounded up to a multiple of 16),
 //     "threads" (used), "frames" (timed), "median_ms", "p95_ms", "fps" (1000 / median_ms),
 //     "backend" (mctstereo only), "threads_requested" (the --threads value of the group),
-//     "warmup_frames", "stage_median_ms" (mctstereo only: {"gray", "pyramid", "census", "match",
-//     "refine", "output", "frame"}, the median over the timed frames of Matcher::timings()),
+//     "warmup_frames", "stage_median_ms" (mctstereo only: the median over the timed frames of each
+//     entry of Matcher::timings(); reference and cpu: {"gray", "pyramid", "census", "match",
+//     "refine", "output", "frame"}; opencl: {"upload", "gray", "pyramid", "census", "match",
+//     "median", "lr_check", "speckle", "fill", "upscale", "output", "download", "frame"}, the
+//     kernels' device times from profiling events and the host's times of the rest),
 //     "ratio_to_stereobm" (fps / fps of StereoBM in the same group; null without one), last }
 //   "memory": {
 //     "peak_resident_bytes": this process's peak resident memory (VmHWM), every size included,
@@ -68,6 +73,7 @@
 #include "io.hpp"
 #include "json.hpp"
 #include "machine_info.hpp"
+#include "options.hpp"
 #include "output_files.hpp"
 #include "peers.hpp"
 #include "statistics.hpp"
@@ -98,8 +104,11 @@ Times are wall-clock milliseconds per frame (median and 95th percentile); fps = 
 StereoSGBM: blockSize 5, MODE_SGBM_3WAY, P1 = 8*5*5, P2 = 32*5*5. OpenCV needs a multiple of 16
 disparities: it searches --num-disparities rounded up to one. Stage times are the medians of the
 matcher's own per-stage times (frame = the whole call).
-Memory: a fresh process per size, range and preset builds the matcher, matches one frame, and
-reports its peak resident memory over what it held just before, next to estimate_memory().
+The opencl backend (--backend opencl, on --device) is timed once per size and range; its stage times
+are the kernels' device times (profiling events) with the host's upload, download and speckle times.
+Memory: a fresh process per size, range and preset builds the matcher (cpu backend unless only
+reference is timed), matches one frame, and reports its peak resident memory over what it held just
+before, next to estimate_memory().
 --sizes thesis = 320x240,640x480,1024x768,1280x720,2048x1536,3840x2160.
 )";
 
@@ -176,6 +185,31 @@ StereoParams bench_params(const std::string& preset_name, int num_disparities) {
   params.min_disparity = 0;
   params.num_disparities = num_disparities;
   return params;
+}
+
+// A matcher of `backend`; for opencl, a RuntimeError naming the flags when its device cannot be
+// had (none installed, --device names none, a kernel fails to build, too little memory).
+Matcher open_backend(Backend backend, const std::string& device, const FrameSize& size, const StereoParams& params,
+                     const MatcherOptions& options) {
+  try {
+    return Matcher(size.width, size.height, params, backend, options);
+  } catch (const std::invalid_argument& e) {
+    if (backend == Backend::OpenCL && !have_opencl()) throw UsageError(std::string("--backend opencl: ") + e.what());
+    throw;
+  } catch (const std::runtime_error& e) {
+    throw RuntimeError((device.empty() ? "--backend " + std::string(to_string(backend)) : "--device " + device) +
+                       ": " + e.what());
+  }
+}
+
+// The same on a tiny frame: whether the backend can run here, and which one auto picks.
+Matcher open_backend(Backend backend, const std::string& device) {
+  StereoParams tiny;
+  tiny.pyramid_levels = 1;
+  tiny.num_disparities = 8;
+  MatcherOptions options;
+  options.device = device;
+  return open_backend(backend, device, FrameSize{64, 32}, tiny, options);
 }
 
 struct Measurement {
@@ -447,10 +481,11 @@ BenchCommand::BenchCommand(CLI::App& parent)
       ->capture_default_str();
   app.add_option("--presets", presets_, "presets to time, comma separated (default: all)")->delimiter(',');
   app.add_option("--backend", backends_,
-                 "where the pipeline runs: cpu (SIMD + threads), reference (scalar); "
-                 "comma separated")
+                 "where the pipeline runs: cpu (SIMD + threads), reference (scalar), opencl (an OpenCL device), "
+                 "auto (opencl on a GPU, else cpu); comma separated")
       ->delimiter(',')
       ->capture_default_str();
+  app.add_option("--device", device_, kDeviceHelp);
   app.add_option("--threads", threads_, "threads of the cpu backend and OpenCV, comma separated; 0 = all cores")
       ->delimiter(',')
       ->capture_default_str();
@@ -476,7 +511,7 @@ void BenchCommand::run() const {
   const std::vector<FrameSize> sizes = parse_sizes(sizes_);
   const std::vector<int> disparity_counts = parse_counts("--num-disparities", num_disparities_, 1, 2048);
   const std::vector<int> thread_settings = parse_counts("--threads", threads_, 0, 4096);
-  const std::vector<Backend> backends = parse_backends(backends_);
+  std::vector<Backend> backends = parse_backends(backends_);
   const std::vector<std::string> presets = presets_.empty() ? preset_names() : presets_;
   for (const std::string& name : presets) {
     try {
@@ -497,6 +532,26 @@ void BenchCommand::run() const {
     throw RuntimeError("left image " + in_quotes(left_path) + " and right image " + in_quotes(right_path) +
                        " differ in size");
 
+  if (!device_.empty() && std::find(backends.begin(), backends.end(), Backend::OpenCL) == backends.end() &&
+      std::find(backends.begin(), backends.end(), Backend::Auto) == backends.end())
+    throw UsageError("--device " + device_ + ": only --backend opencl and auto run on an OpenCL device");
+  // auto becomes what it picks (once in the list); the OpenCL device is opened before any timing,
+  // so that a missing one costs nothing.
+  std::string opencl_device;
+  for (std::size_t i = 0; i < backends.size(); ++i) {
+    if (backends[i] != Backend::Auto && backends[i] != Backend::OpenCL) continue;
+    const Matcher probe = open_backend(backends[i], device_);
+    if (backends[i] == Backend::Auto) {
+      if (!probe.notice().empty()) std::cerr << "mctstereo: note: --backend auto: " << probe.notice() << "\n";
+      if (std::find(backends.begin(), backends.end(), probe.backend()) != backends.end()) {
+        backends.erase(backends.begin() + static_cast<std::ptrdiff_t>(i--));
+        continue;
+      }
+      backends[i] = probe.backend();
+    }
+    if (probe.backend() == Backend::OpenCL) opencl_device = probe.device_name();
+  }
+
   const Settings settings = probe_settings();
   const bool have_cpu = std::find(backends.begin(), backends.end(), Backend::Cpu) != backends.end();
   const std::string simd_target = have_cpu ? settings.simd_target : "scalar";
@@ -510,17 +565,19 @@ void BenchCommand::run() const {
   std::printf("CPU       %s, %ld cores online\n", settings.cpu.c_str(), settings.cores_online);
   std::printf("SIMD      %s; OpenMP %d threads by default; timed with --threads %s, --backend %s\n",
               simd_target.c_str(), settings.openmp_max_threads, threads_text.c_str(), backends_text.c_str());
+  if (!opencl_device.empty()) std::printf("OpenCL    %s\n", opencl_device.c_str());
   std::printf("versions  mctstereo %s, OpenCV %s, %s, build %s\n", MCTSTEREO_VERSION, CV_VERSION,
               compiler_version().c_str(), build_type().c_str());
   std::printf("date      %s\n\n", utc_date().c_str());
 
   // Progress steps: per (size, range) the peers and cpu presets per thread setting, the reference
-  // presets once, and one memory probe per preset.
+  // and opencl presets once, and one memory probe per preset.
   const bool have_reference = std::find(backends.begin(), backends.end(), Backend::Reference) != backends.end();
+  const bool have_opencl_backend = !opencl_device.empty();
   const int preset_count = static_cast<int>(presets.size());
   const int steps = static_cast<int>(sizes.size() * disparity_counts.size()) *
                     (static_cast<int>(thread_settings.size()) * (2 + (have_cpu ? preset_count : 0)) +
-                     (have_reference ? preset_count : 0) + preset_count);
+                     (have_reference ? preset_count : 0) + (have_opencl_backend ? preset_count : 0) + preset_count);
   Progress progress(steps);
 
   // What cannot run (a preset invalid at a size, OpenCV too narrow a frame): noted once per
@@ -611,7 +668,8 @@ void BenchCommand::run() const {
         }
 
         for (const Backend backend : backends) {
-          if (backend == Backend::Reference && ti > 0) continue;  // single-threaded: timed once
+          // Single-threaded, or on the device: timed once.
+          if ((backend == Backend::Reference || backend == Backend::OpenCL) && ti > 0) continue;
           const FramePlan plan = frame_plan(size, backend == Backend::Reference, warmup_, frames_);
           for (const std::string& name : presets) {
             progress.step(group + name + " (" + std::string(to_string(backend)) + ")");
@@ -621,7 +679,8 @@ void BenchCommand::run() const {
             }
             MatcherOptions options;
             options.threads = threads_requested;
-            Matcher matcher(size.width, size.height, bench_params(name, num_disparities), backend, options);
+            options.device = device_;
+            Matcher matcher = open_backend(backend, device_, size, bench_params(name, num_disparities), options);
             std::vector<std::vector<double>> stage_ms;
             auto collect_stages = [&] {
               const std::vector<StageTime>& t = matcher.timings();
@@ -631,7 +690,7 @@ void BenchCommand::run() const {
             Measurement m;
             m.method = name;
             m.kind = "mctstereo";
-            m.backend = to_string(backend);
+            m.backend = to_string(matcher.backend());
             m.num_disparities = num_disparities;
             m.threads = matcher.threads();
             m.warmup = plan.warmup;
@@ -646,21 +705,29 @@ void BenchCommand::run() const {
     }
   }
 
-  // Stage medians, a table of their own so that the one above stays within 120 columns.
-  std::vector<std::string> stage_names;
-  for (const Measurement& m : measurements)
-    if (!m.stage_median_ms.empty()) {
-      for (const StageTime& s : m.stage_median_ms) stage_names.push_back(s.stage);
-      break;
-    }
-  if (!stage_names.empty()) {
+  // Stage medians, tables of their own so that the one above stays within 120 columns: one per
+  // list of stages (the host backends share one; opencl times its kernels).
+  std::vector<std::vector<std::string>> stage_lists;
+  for (const Measurement& m : measurements) {
+    if (m.stage_median_ms.empty()) continue;
+    std::vector<std::string> names;
+    for (const StageTime& s : m.stage_median_ms) names.push_back(s.stage);
+    if (std::find(stage_lists.begin(), stage_lists.end(), names) == stage_lists.end()) stage_lists.push_back(names);
+  }
+  for (const std::vector<std::string>& stage_names : stage_lists) {
     progress.clear();
-    std::printf("\nper-stage medians, ms (the matcher's own times; frame = the whole call)\n");
+    std::printf("\nper-stage medians, ms (the matcher's own times; frame = the whole call%s)\n",
+                std::find(stage_names.begin(), stage_names.end(), "upload") != stage_names.end()
+                    ? "; opencl: kernels' device times, host times of upload, speckle, download"
+                    : "");
     std::printf("%-10s %5s %4s  %-18s %-9s", "size", "disp", "thr", "method", "backend");
     for (const std::string& s : stage_names) std::printf(" %8s", s.c_str());
     std::printf("\n");
     for (const Measurement& m : measurements) {
-      if (m.stage_median_ms.empty()) continue;
+      if (m.stage_median_ms.size() != stage_names.size() ||
+          !std::equal(stage_names.begin(), stage_names.end(), m.stage_median_ms.begin(),
+                      [](const std::string& n, const StageTime& s) { return n == s.stage; }))
+        continue;
       std::printf("%-10s %5d %4d  %-18s %-9s", m.size.text().c_str(), m.num_disparities, m.threads, m.method.c_str(),
                   m.backend.c_str());
       for (const StageTime& s : m.stage_median_ms) std::printf(" %8.3f", s.ms);
@@ -669,9 +736,10 @@ void BenchCommand::run() const {
     std::fflush(stdout);
   }
 
-  // Memory: one fresh process per (size, range, preset), on the cpu backend when it was timed,
-  // with the most threads asked for (the matcher holds match scratch per thread).
-  const Backend memory_backend = have_cpu ? Backend::Cpu : Backend::Reference;
+  // Memory: one fresh process per (size, range, preset), on the cpu backend unless only the
+  // reference backend was timed, with the most threads asked for (the matcher holds match scratch
+  // per thread). Host memory: the opencl backend's buffers live on its device.
+  const Backend memory_backend = have_cpu || !have_reference ? Backend::Cpu : Backend::Reference;
   int memory_threads = 1;
   if (memory_backend == Backend::Cpu) {
     const auto effective = [&](int t) { return t > 0 ? t : std::max(1, settings.openmp_max_threads); };
@@ -755,6 +823,7 @@ void BenchCommand::run() const {
   for (const FrameSize& s : sizes) sizes_json.push_back(s.text());
   for (const std::string& p : presets) presets_json.push_back(p);
   settings_json.set("backends", std::move(backends_json));
+  if (!opencl_device.empty()) settings_json.set("opencl_device", opencl_device);
   settings_json.set("thread_settings", std::move(threads_json));
   settings_json.set("num_disparities", std::move(disparities_json));
   settings_json.set("sizes", std::move(sizes_json));

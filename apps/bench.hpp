@@ -1,6 +1,7 @@
 // `mctstereo bench`: frame times and per-stage times of the presets against OpenCV's StereoBM and
 // StereoSGBM on the same frames, in the same process, over lists of sizes, disparity ranges, thread
-// counts and backends; the matcher's peak resident memory per size next to estimate_memory().
+// counts and backends (opencl with its kernels' device times); the matcher's peak resident memory
+// per size next to estimate_memory().
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -27,6 +28,7 @@ class BenchCommand {
   std::vector<std::string> num_disparities_ = {"64"};
   std::vector<std::string> threads_ = {"0"};
   std::vector<std::string> backends_ = {"cpu"};
+  std::string device_;  // OpenCL device of --backend opencl and auto
   std::vector<std::string> presets_;
   int frames_ = 50;
   int warmup_ = 5;

@@ -1167,9 +1167,8 @@ void EvalCommand::run() const {
       const auto frames_of = [&](std::size_t k) { return k == baseline_step ? repeat_ + 1 : 1; };
       if (!method.peer) {
         const StereoParams params = preset_params(method, s);
-        MatcherOptions options;
-        options.threads = run_flags_.threads;
-        Matcher matcher(s.left.cols, s.left.rows, params, backend, options);
+        Matcher matcher = run_flags_.make_matcher(s.left.cols, s.left.rows, params);
+        ev.backend = matcher.backend();  // what --backend auto resolved to
         ev.simd_target = matcher.simd_target();
         ev.threads = matcher.threads();
         for (std::size_t k = 0; k < steps.size(); ++k) {

@@ -1,4 +1,4 @@
-// mctstereo: the command line. Subcommands match, eval and bench; every failure ends as one line
+// mctstereo: the command line. Subcommands match, eval, bench and devices; every failure ends as one line
 // "mctstereo: error: ..." on stderr with exit status 2 (usage) or 1 (runtime).
 #include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
@@ -8,6 +8,7 @@
 #include <string_view>
 
 #include "bench.hpp"
+#include "devices.hpp"
 #include "errors.hpp"
 #include "eval.hpp"
 #include "match.hpp"
@@ -34,11 +35,14 @@ int main(int argc, char** argv) {
   MatchCommand match(app);
   EvalCommand eval(app);
   BenchCommand bench(app);
+  DevicesCommand devices(app);
 
   // CLI11 would call a misspelt subcommand a stray argument; name it instead.
-  if (argc > 1 && argv[1][0] != '-' && std::string_view(argv[1]) != "match" && std::string_view(argv[1]) != "eval" &&
-      std::string_view(argv[1]) != "bench")
-    return fail(kExitUsage, std::string("unknown subcommand '") + argv[1] + "' (known: match, eval, bench)");
+  if (argc > 1 && argv[1][0] != '-') {
+    const std::string_view name = argv[1];
+    if (name != "match" && name != "eval" && name != "bench" && name != "devices")
+      return fail(kExitUsage, std::string("unknown subcommand '") + argv[1] + "' (known: match, eval, bench, devices)");
+  }
 
   try {
     app.parse(argc, argv);
@@ -51,6 +55,7 @@ int main(int argc, char** argv) {
     if (match.selected()) match.run();
     if (eval.selected()) eval.run();
     if (bench.selected()) bench.run();
+    if (devices.selected()) devices.run();
     return 0;
   } catch (const UsageError& e) {
     return fail(kExitUsage, e.what());

@@ -24,7 +24,9 @@ constexpr const char* kMatchFooter = R"(Units and output scaling:
               q4: value = 16 x (d - min + 1), so d = value / 16 + min - 1; negative d allowed.
   --color   8-bit turbo colormap over the fixed range [min, min + N - 1], black = invalid.
   --right-output holds the right view's map: the right pixel x matches the left pixel x + d.
-The summary line gives the stage times of the frame in milliseconds.
+The summary line gives the stage times of the frame in milliseconds. With --backend opencl they
+are the kernels' device times from profiling events, next to the host's wall times of upload,
+download, speckle (speckle removal runs on the host) and frame (the whole call).
 )";
 
 std::string fixed(double v, int decimals) {
@@ -65,7 +67,7 @@ MatchCommand::MatchCommand(CLI::App& parent)
 void MatchCommand::run() const {
   const StereoParams requested = parameters_.resolve();
   check_parameters(requested);
-  const Backend backend = run_flags_.parsed_backend();
+  (void)run_flags_.parsed_backend();  // a misspelt backend or misplaced --device costs no image reading
 
   // Every check that needs no pixels comes first, so a mistake costs no matching.
   const std::vector<std::string> inputs = {left_, right_};
@@ -93,10 +95,7 @@ void MatchCommand::run() const {
                        ": a rectified pair has one size");
   check_parameters(requested, left.cols, left.rows);
 
-  MatcherOptions options;
-  options.threads = run_flags_.threads;
-  options.compute_right = !right_output_.empty();
-  Matcher matcher(left.cols, left.rows, requested, backend, options);
+  Matcher matcher = run_flags_.make_matcher(left.cols, left.rows, requested, !right_output_.empty());
   const StereoParams& params = matcher.params();
 
   // Stage times per frame; with --repeat each stage reports its median over the frames.
@@ -131,10 +130,14 @@ void MatchCommand::run() const {
     if (stage != "frame") stages += " " + stage + " " + fixed(median(stage_ms[stage]), 2);
   const std::string frame = fixed(median(stage_ms["frame"]), 2) + " ms" +
                             (repeat_ > 1 ? " (median of " + std::to_string(repeat_) + ")" : "");
+  // The opencl backend names its device; its SIMD target and threads serve speckle removal only.
+  const std::string where = matcher.backend() == Backend::OpenCL
+                                ? ", device " + matcher.device_name()
+                                : ", SIMD " + matcher.simd_target() + ", threads " + std::to_string(matcher.threads());
   std::cout << left.cols << "x" << left.rows << ", disparities " << params.min_disparity << ".."
             << params.max_disparity() << " (" << params.num_disparities << "), preset "
-            << parameters_.preset_name() << ", backend " << to_string(matcher.backend()) << ", SIMD "
-            << matcher.simd_target() << ", threads " << matcher.threads() << "; ms:" << stages << "; frame "
+            << parameters_.preset_name() << ", backend " << to_string(matcher.backend()) << where << "; ms:"
+            << stages << "; frame "
             << frame << "; valid " << fixed(valid_percent(matcher.disparity_q4(), invalid), 1)
             << " %; wrote " << wrote << "\n";
 }

@@ -1,6 +1,7 @@
 #include "options.hpp"
 
 #include <cctype>
+#include <iostream>
 #include <sstream>
 #include <stdexcept>
 
@@ -157,19 +158,55 @@ bool ParameterFlags::given(std::string_view flag) const {
   return false;
 }
 
+const char* const kBackendHelp =
+    "where the pipeline runs: cpu (SIMD + threads), reference (scalar), opencl (an OpenCL device, see --device "
+    "and 'mctstereo devices') or auto (opencl on a GPU if there is one, else cpu)";
+const char* const kDeviceHelp =
+    "OpenCL device of --backend opencl or auto: an index or a part of the name of a device 'mctstereo devices' "
+    "lists (default: the first GPU, else the first device)";
+
 void RunFlags::add_to(CLI::App& app) {
-  app.add_option("--backend", backend, "where the pipeline runs: cpu (SIMD + threads) or reference (scalar)")
-      ->capture_default_str();
-  app.add_option("--threads", threads, "threads of the cpu backend; 0 = all cores")
+  app.add_option("--backend", backend, kBackendHelp)->capture_default_str();
+  app.add_option("--device", device, kDeviceHelp);
+  app.add_option("--threads", threads, "threads of the cpu backend (and of opencl's host steps); 0 = all cores")
       ->check(CLI::Range(0, 4096))
       ->capture_default_str();
 }
 
 Backend RunFlags::parsed_backend() const {
+  Backend parsed;
   try {
-    return parse_backend(backend);
+    parsed = parse_backend(backend);
   } catch (const std::invalid_argument& e) {
     throw UsageError(std::string("--backend: ") + e.what());
+  }
+  if (!device.empty() && parsed != Backend::OpenCL && parsed != Backend::Auto)
+    throw UsageError("--device " + device + ": only --backend opencl and auto run on an OpenCL device");
+  return parsed;
+}
+
+MatcherOptions RunFlags::matcher_options(bool compute_right) const {
+  MatcherOptions options;
+  options.threads = threads;
+  options.compute_right = compute_right;
+  options.device = device;
+  return options;
+}
+
+Matcher RunFlags::make_matcher(int width, int height, const StereoParams& params, bool compute_right) const {
+  const Backend requested = parsed_backend();
+  try {
+    Matcher matcher(width, height, params, requested, matcher_options(compute_right));
+    if (!matcher.notice().empty()) std::cerr << "mctstereo: note: " << matcher.notice() << "\n";
+    return matcher;
+  } catch (const std::invalid_argument& e) {
+    // No opencl backend in this build: the command asked for what cannot be.
+    if (requested == Backend::OpenCL && !have_opencl()) throw UsageError(std::string("--backend opencl: ") + e.what());
+    throw;
+  } catch (const std::runtime_error& e) {
+    // Only the OpenCL device fails at run time here: say which flag led to it.
+    const std::string flag = device.empty() ? "--backend " + backend : "--device " + device;
+    throw RuntimeError(flag + ": " + e.what());
   }
 }
 

@@ -1,5 +1,5 @@
 // Flags shared by the subcommands: the stereo parameters (a preset, then one flag per field of
-// StereoParams) and the backend and thread count.
+// StereoParams) and the backend, OpenCL device and thread count.
 #pragma once
 
 #include <CLI/CLI.hpp>
@@ -46,15 +46,27 @@ class ParameterFlags {
   std::vector<Override> overrides_;
 };
 
-/// --backend and --threads.
+/// --backend, --device and --threads.
 struct RunFlags {
   std::string backend = "cpu";
+  std::string device;  // "" = the first GPU, else the first device
   int threads = 0;
 
   void add_to(CLI::App& app);
-  /// UsageError for an unknown backend.
+  /// UsageError for an unknown backend, or --device with a backend that has none.
   Backend parsed_backend() const;
+  /// --threads and --device as matcher options.
+  MatcherOptions matcher_options(bool compute_right = false) const;
+  /// The matcher of these flags. Prints the notice of --backend auto ("mctstereo: note: ...") on
+  /// stderr when it fell back to the cpu backend. RuntimeError naming the flag when the OpenCL
+  /// device cannot be had (none installed, --device names none, a kernel fails to build, too
+  /// little device memory); std::invalid_argument (usage) for bad parameters.
+  Matcher make_matcher(int width, int height, const StereoParams& params, bool compute_right = false) const;
 };
+
+/// The help text of --backend and --device.
+extern const char* const kBackendHelp;
+extern const char* const kDeviceHelp;
 
 /// Throws UsageError("invalid parameters: ...") when `params` are invalid whatever the image size.
 void check_parameters(const StereoParams& params);

@@ -1,5 +1,7 @@
 #!/bin/sh
-# Installs what mctstereo needs to build, run and test on Debian 12 (run as root, or with sudo).
+# Installs what mctstereo needs to build, run and test on Debian 12 (run as root, or with sudo):
+# OpenCL's headers and ICD loader build the opencl backend; PoCL is an OpenCL driver for the CPU,
+# so that the opencl backend runs (and is tested) without a GPU; clinfo lists the devices.
 set -eu
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
@@ -7,4 +9,5 @@ export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends \
   g++ cmake ninja-build pkg-config \
-  libhwy-dev libopencv-dev libcli11-dev libgtest-dev libbenchmark-dev >/dev/null
+  libhwy-dev libopencv-dev libcli11-dev libgtest-dev libbenchmark-dev \
+  ocl-icd-opencl-dev opencl-clhpp-headers opencl-c-headers pocl-opencl-icd clinfo >/dev/null

@@ -6,10 +6,14 @@
 
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <utility>
 
 #include "stages.hpp"
+#ifdef MCTSTEREO_HAVE_OPENCL
+#include "opencl/pipeline.hpp"
+#endif
 
 namespace mctstereo {
 
@@ -88,6 +92,11 @@ struct Matcher::Impl {
   const StageTable* stages;
   int threads = 1;
   bool need_right = false;
+  std::string notice;  // how Backend::Auto fell back, if it did
+#ifdef MCTSTEREO_HAVE_OPENCL
+  std::unique_ptr<detail::opencl::Pipeline> device;  // the opencl backend's driver and buffers
+  bool float_current = true;                         // out_float holds the last frame's map
+#endif
 
   std::vector<Plane<std::uint8_t>> full_gray[2];  // input size, then each working-scale reduction
   std::vector<Level> levels;                      // levels[0] is the finest (working scale)
@@ -104,9 +113,16 @@ struct Matcher::Impl {
     const std::string err = p.validate(w, h);
     if (!err.empty()) throw std::invalid_argument(err);
     if (o.threads < 0) throw std::invalid_argument("threads = " + std::to_string(o.threads) + " must be >= 0");
+    resolve_backend();
     stages = backend == Backend::Reference ? &kReferenceStages : &kCpuStages;
     threads = backend == Backend::Reference ? 1 : (o.threads > 0 ? o.threads : omp_get_max_threads());
     need_right = p.lr_check || o.compute_right;
+    if (backend == Backend::OpenCL) {
+      // The device holds the pyramid; the host keeps only the maps the caller reads.
+      for (int v = 0; v < (o.compute_right ? 2 : 1); ++v) out_q4[v].reset(w, h);
+      out_float.reset(w, h);
+      return;
+    }
 
     // Working-scale reductions of the input: full_gray[v][0] is the input size.
     const int scale_steps = log2_exact(p.working_scale);
@@ -158,6 +174,55 @@ struct Matcher::Impl {
     }
     out_float.reset(w, h);
     timings.reserve(kSlotCount);
+  }
+
+  // Backend::OpenCL opens its device (errors propagate); Backend::Auto takes an OpenCL GPU (or
+  // the device options.device names) when one is there and works, else the cpu backend with a
+  // notice.
+  void resolve_backend() {
+#ifdef MCTSTEREO_HAVE_OPENCL
+    namespace ocl = detail::opencl;
+    if (backend == Backend::OpenCL) {
+      device = std::make_unique<ocl::Pipeline>(ocl::choose_device(options.device), width, height, params, options);
+    } else if (backend == Backend::Auto) {
+      backend = Backend::Cpu;
+      std::optional<ocl::DeviceInfo> chosen;
+      if (options.device.empty()) {
+        for (const ocl::DeviceInfo& d : ocl::list_devices())
+          if (d.gpu) {
+            chosen = d;
+            break;
+          }
+        if (!chosen) notice = "no OpenCL GPU found: running on the cpu backend";
+      } else {
+        try {
+          chosen = ocl::choose_device(options.device);
+        } catch (const std::runtime_error&) {
+          notice = "no OpenCL device matches '" + options.device + "': running on the cpu backend";
+        }
+      }
+      if (chosen) {
+        try {
+          device = std::make_unique<ocl::Pipeline>(*chosen, width, height, params, options);
+          backend = Backend::OpenCL;
+        } catch (const std::runtime_error& e) {
+          // A build log runs over many lines: the notice keeps the first.
+          const std::string what = e.what();
+          notice = "OpenCL device " + chosen->name + " failed (" + what.substr(0, what.find('\n')) +
+                   "): running on the cpu backend";
+        }
+      }
+    }
+#else
+    if (backend == Backend::OpenCL)
+      throw std::invalid_argument(
+          "this build has no opencl backend (it was built without OpenCL: install the OpenCL headers and ICD "
+          "loader, e.g. ocl-icd-opencl-dev opencl-clhpp-headers, and rebuild)");
+    if (backend == Backend::Auto) {
+      backend = Backend::Cpu;
+      notice = "this build has no opencl backend: running on the cpu backend";
+    }
+#endif
   }
 
   const Plane<std::uint8_t>& level_image(int l, int v) const {
@@ -231,7 +296,14 @@ struct Matcher::Impl {
       int n;
       ~RestoreThreads() { omp_set_num_threads(n); }
     } restore{caller_threads};
-    omp_set_num_threads(backend == Backend::Cpu ? threads : 1);
+    omp_set_num_threads(backend == Backend::Reference ? 1 : threads);
+#ifdef MCTSTEREO_HAVE_OPENCL
+    if (device) {
+      float_current = false;
+      device->compute(left, right, out_q4);
+      return;
+    }
+#endif
     for (double& t : slot_ms) t = 0;
     Stopwatch frame, clock;
     frame.start();
@@ -296,6 +368,13 @@ MapView<const std::int16_t> Matcher::disparity_q4() const {
   return {p.row(0), p.width(), p.height(), p.stride()};
 }
 MapView<const float> Matcher::disparity() const {
+#ifdef MCTSTEREO_HAVE_OPENCL
+  // The opencl backend brings the float map down only when it is asked for.
+  if (impl_->device && !impl_->float_current) {
+    impl_->device->download_float(impl_->out_float);
+    impl_->float_current = true;
+  }
+#endif
   const auto& p = impl_->out_float;
   return {p.row(0), p.width(), p.height(), p.stride()};
 }
@@ -309,18 +388,54 @@ int Matcher::width() const { return impl_->width; }
 int Matcher::height() const { return impl_->height; }
 const StereoParams& Matcher::params() const { return impl_->params; }
 Backend Matcher::backend() const { return impl_->backend; }
+std::string Matcher::notice() const { return impl_->notice; }
+std::string Matcher::device_name() const {
+#ifdef MCTSTEREO_HAVE_OPENCL
+  if (impl_->device) return impl_->device->device_name();
+#endif
+  return {};
+}
 int Matcher::threads() const { return impl_->threads; }
 std::string Matcher::simd_target() const {
   return impl_->backend == Backend::Reference ? "scalar" : detail::cpu::simd_target_name();
 }
-const std::vector<StageTime>& Matcher::timings() const { return impl_->timings; }
+const std::vector<StageTime>& Matcher::timings() const {
+#ifdef MCTSTEREO_HAVE_OPENCL
+  if (impl_->device) return impl_->device->timings();
+#endif
+  return impl_->timings;
+}
 
-std::string_view to_string(Backend backend) { return backend == Backend::Reference ? "reference" : "cpu"; }
+std::string_view to_string(Backend backend) {
+  switch (backend) {
+    case Backend::Reference: return "reference";
+    case Backend::Cpu: return "cpu";
+    case Backend::OpenCL: return "opencl";
+    case Backend::Auto: return "auto";
+  }
+  return "unknown";
+}
 
 Backend parse_backend(std::string_view name) {
-  if (name == "reference") return Backend::Reference;
-  if (name == "cpu") return Backend::Cpu;
-  throw std::invalid_argument("unknown backend '" + std::string(name) + "' (known: reference, cpu)");
+  for (Backend b : {Backend::Reference, Backend::Cpu, Backend::OpenCL, Backend::Auto})
+    if (name == to_string(b)) return b;
+  throw std::invalid_argument("unknown backend '" + std::string(name) + "' (known: reference, cpu, opencl, auto)");
+}
+
+bool have_opencl() {
+#ifdef MCTSTEREO_HAVE_OPENCL
+  return true;
+#else
+  return false;
+#endif
+}
+
+std::vector<OpenclDevice> opencl_devices() {
+#ifdef MCTSTEREO_HAVE_OPENCL
+  return detail::opencl::describe_devices();
+#else
+  return {};
+#endif
 }
 
 std::size_t estimate_memory(const StereoParams& params, int width, int height, const MatcherOptions& options) {

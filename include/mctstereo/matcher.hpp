@@ -16,10 +16,13 @@ namespace mctstereo {
 enum class Backend {
   Reference,  ///< scalar, one plain loop per stage: the specification in code; single thread
   Cpu,        ///< SIMD (Highway, dispatched at run time) and OpenMP threads over row bands
+  OpenCL,     ///< OpenCL kernels on a GPU or any other OpenCL device; equals the others bit for bit
+  Auto,       ///< resolved when the matcher is built: opencl on a GPU if there is one, else cpu
 };
 
 std::string_view to_string(Backend backend);
-/// Parses "reference" or "cpu"; throws std::invalid_argument naming the accepted values.
+/// Parses "reference", "cpu", "opencl" or "auto"; throws std::invalid_argument naming the
+/// accepted values.
 Backend parse_backend(std::string_view name);
 
 /// Fixed-point scale of the int16 disparity maps: value = 16 x disparity (as OpenCV's DISP_SHIFT 4).
@@ -32,6 +35,10 @@ struct MatcherOptions {
   int threads = 0;
   /// Also produce the refined right-view disparity map (the LR check computes a raw one anyway).
   bool compute_right = false;
+  /// The OpenCL device of the opencl and auto backends: "" prefers the first GPU, else the first
+  /// device; a number is an index into opencl_devices(); other text picks the first device whose
+  /// name or platform contains it (case-insensitive).
+  std::string device;
 };
 
 /// Wall time of one stage of the last frame, milliseconds.
@@ -43,8 +50,15 @@ struct StageTime {
 /// Dense stereo matcher on the (modified) census transform with multi-resolution search.
 ///
 /// The constructor validates the parameters (std::invalid_argument with the message of
-/// StereoParams::validate) and allocates every buffer; compute() allocates nothing.
+/// StereoParams::validate) and allocates every buffer; compute() allocates nothing on the
+/// reference and cpu backends, and no device memory on the opencl backend.
 /// Not thread-safe: use one matcher per thread of the caller.
+///
+/// Backend::OpenCL opens the device of MatcherOptions::device, allocates every device buffer and
+/// builds the kernels once (a matcher of the same device and parameters reuses the builds);
+/// std::runtime_error when there is no such device, when a kernel does not build (with the build
+/// log) or when the device memory does not suffice. A build without OpenCL throws
+/// std::invalid_argument. Backend::Auto never fails for want of a device: see notice().
 class Matcher {
  public:
   Matcher(int width, int height, const StereoParams& params, Backend backend = Backend::Cpu,
@@ -75,12 +89,25 @@ class Matcher {
   int width() const;
   int height() const;
   const StereoParams& params() const;
+  /// The backend that runs: never Backend::Auto (resolved at construction).
   Backend backend() const;
-  /// Threads the cpu backend uses (1 for reference).
+  /// One line on how Backend::Auto was resolved when it fell back ("no OpenCL GPU found: running
+  /// on the cpu backend"); "" otherwise.
+  std::string notice() const;
+  /// The OpenCL device of the opencl backend, "NAME (PLATFORM)"; "" for the other backends.
+  std::string device_name() const;
+  /// Threads the cpu backend uses (1 for reference; for opencl, the host threads of speckle
+  /// removal, which runs on the host).
   int threads() const;
-  /// SIMD target chosen at run time ("AVX3", "AVX2", "NEON", ... ; "scalar" for reference).
+  /// SIMD target chosen at run time ("AVX3", "AVX2", "NEON", ... ; "scalar" for reference; for
+  /// opencl, the host's, used by speckle removal).
   std::string simd_target() const;
   /// Per-stage times of the last compute(); the last entry is "frame", the whole call.
+  /// reference and cpu: gray, pyramid, census, match, refine, output, frame (host wall ms).
+  /// opencl: upload, gray, pyramid, census, match, median, lr_check, speckle, fill, upscale, output,
+  /// download, frame: the kernels' device ms from profiling events (summed per stage; 0 for a
+  /// stage that did not run), except upload, download and speckle (on the host, its transfers
+  /// included) and frame (the whole call), which are host wall ms.
   const std::vector<StageTime>& timings() const;
 
  private:
@@ -88,8 +115,26 @@ class Matcher {
   std::unique_ptr<Impl> impl_;
 };
 
-/// Bytes the matcher allocates for (params, width, height): grows with W x H x (search width at the
-/// finest level), not with W x H x D.
+/// An OpenCL device, as opencl_devices() lists it.
+struct OpenclDevice {
+  int index = -1;  ///< what MatcherOptions::device and --device take
+  std::string name, platform, vendor;
+  std::string type;  ///< "GPU", "CPU", "accelerator" or "other"
+  std::string version, c_version, driver;  ///< "OpenCL 3.0 ...", "OpenCL C 1.2 ...", driver version
+  int compute_units = 0;
+  std::uint64_t global_memory = 0;   ///< bytes
+  std::uint64_t max_allocation = 0;  ///< bytes of the largest buffer
+  bool has_popcount = false;         ///< OpenCL C 1.2 or later: the kernels count bits with popcount()
+};
+
+/// Whether this build has the opencl backend (built with OpenCL's headers and ICD loader).
+bool have_opencl();
+/// Every OpenCL device of every platform; empty without a platform (no driver installed) or in a
+/// build without the opencl backend.
+std::vector<OpenclDevice> opencl_devices();
+
+/// Bytes the matcher of the cpu backend allocates for (params, width, height): grows with W x H x
+/// (search width at the finest level), not with W x H x D.
 std::size_t estimate_memory(const StereoParams& params, int width, int height,
                             const MatcherOptions& options = {});
 

@@ -10,10 +10,12 @@
 namespace mctstereo::detail::opencl {
 
 /// How kernels count bits: the popcount built-in (OpenCL C 1.2) or the SWAR form (OpenCL 1.1
-/// devices). Both are kept and tested; pick_popcount() takes the built-in where the device has it.
+/// devices). Both are kept and tested. pick_popcount() takes the built-in on GPUs that have it
+/// (one instruction there) and SWAR elsewhere: PoCL runs the built-in lane by lane but turns the
+/// SWAR form into vector code, 1.5 to 2.3 x faster in the matching kernel (640 x 480, measured).
 enum class Popcount { Builtin, Swar };
 inline Popcount pick_popcount(const DeviceInfo& device) {
-  return device.has_popcount ? Popcount::Builtin : Popcount::Swar;
+  return device.has_popcount && device.gpu ? Popcount::Builtin : Popcount::Swar;
 }
 
 /// An input image as uploaded: the caller's bytes (rows `stride` bytes apart) in `bytes`.

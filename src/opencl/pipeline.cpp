@@ -1,0 +1,377 @@
+// The opencl backend's driver. Reads like Matcher::Impl (src/matcher.cpp), stage for stage, on
+// device planes: upload, gray, working-scale reductions and pyramid, then per level coarse to fine
+// census, match and refinement, then upscale, output conversion and download. Every stage
+// enqueues on the runtime's in-order queue without waiting; the host waits only for speckle
+// removal (which runs on the host) and for the download of the results.
+#include "opencl/pipeline.hpp"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <map>
+#include <stdexcept>
+#include <utility>
+
+namespace mctstereo::detail::opencl {
+
+namespace {
+
+int log2_exact(int v) {
+  int l = 0;
+  while ((1 << l) < v) ++l;
+  return l;
+}
+
+class Stopwatch {
+ public:
+  Stopwatch() : t0_(std::chrono::steady_clock::now()) {}
+  double lap_ms() {
+    const auto t1 = std::chrono::steady_clock::now();
+    const double ms = std::chrono::duration<double, std::milli>(t1 - t0_).count();
+    t0_ = t1;
+    return ms;
+  }
+
+ private:
+  std::chrono::steady_clock::time_point t0_;
+};
+
+// The stage times of a frame, in pipeline order; "frame" last. Kernel labels are those the stage
+// functions pass to Runtime::run; upload, speckle, download and frame are host wall times.
+constexpr std::array<const char*, 13> kTimingLabels = {"upload", "gray",    "pyramid", "census",   "match",
+                                                       "median", "lr_check", "speckle", "fill",     "upscale",
+                                                       "output", "download", "frame"};
+
+// Frames of pipelines that share a runtime (one device) take turns: the runtime's profiling
+// events are one list per device, and a frame reads back the events it enqueued.
+std::mutex& frame_mutex_of(const Runtime& rt) {
+  static std::mutex guard;
+  static std::map<const Runtime*, std::unique_ptr<std::mutex>> mutexes;  // runtimes live as long as the process
+  std::lock_guard<std::mutex> lock(guard);
+  auto& m = mutexes[&rt];
+  if (!m) m = std::make_unique<std::mutex>();
+  return *m;
+}
+
+// An OpenCL error as the user should read it: which device, and whether memory ran out.
+[[noreturn]] void rethrow_cl(const DeviceInfo& device, const cl::Error& e) {
+  if (e.err() == CL_MEM_OBJECT_ALLOCATION_FAILURE || e.err() == CL_OUT_OF_RESOURCES ||
+      e.err() == CL_OUT_OF_HOST_MEMORY)
+    throw std::runtime_error("OpenCL device " + device.name + " ran out of memory or resources: " + describe(e));
+  throw std::runtime_error("OpenCL device " + device.name + ": " + describe(e));
+}
+
+std::string device_type(const cl::Device& device) {
+  const cl_device_type type = device.getInfo<CL_DEVICE_TYPE>();
+  if (type & CL_DEVICE_TYPE_GPU) return "GPU";
+  if (type & CL_DEVICE_TYPE_CPU) return "CPU";
+  if (type & CL_DEVICE_TYPE_ACCELERATOR) return "accelerator";
+  return "other";
+}
+
+std::string mib(std::uint64_t bytes) { return std::to_string((bytes + (1u << 20) - 1) >> 20) + " MiB"; }
+
+}  // namespace
+
+std::vector<OpenclDevice> describe_devices() {
+  std::vector<OpenclDevice> out;
+  for (const DeviceInfo& d : list_devices()) {
+    OpenclDevice o;
+    o.index = d.index;
+    o.name = d.name;
+    o.platform = d.platform;
+    o.vendor = d.vendor;
+    try {
+      o.type = device_type(d.device);
+    } catch (const cl::Error&) {
+      o.type = d.gpu ? "GPU" : "other";
+    }
+    o.version = d.version;
+    o.c_version = d.c_version;
+    o.driver = d.driver;
+    o.compute_units = d.compute_units;
+    o.global_memory = d.global_memory;
+    o.max_allocation = d.max_allocation;
+    o.has_popcount = d.has_popcount;
+    out.push_back(std::move(o));
+  }
+  return out;
+}
+
+// Everything one pyramid level holds for both views, as Matcher::Impl's Level.
+struct Pipeline::Level {
+  int width = 0, height = 0;
+  int scale_log2 = 0;  // this level is 2^scale_log2 times smaller than the input
+  int dmin = 0, dmax = 0;
+  int shd_window = 5;
+  bool refine = true;
+  int speckle = 0;  // speckle removal's region size at this level; on only when > 1
+  DevicePlane<std::uint8_t> image[2];
+  DeviceCodes codes[2];
+  DevicePlane<std::int16_t> disparity[2], scratch[2];
+  Plane<std::int16_t> host;  // the map on its way through speckle removal
+};
+
+Pipeline::Pipeline(const DeviceInfo& device, int width, int height, const StereoParams& params,
+                   const MatcherOptions& options)
+    : rt_(runtime_for(device)),
+      frame_mutex_(&frame_mutex_of(*rt_)),
+      width_(width),
+      height_(height),
+      params_(params),
+      options_(options),
+      need_right_(params.lr_check || options.compute_right),
+      popcount_(pick_popcount(rt_->device())),
+      invalid_q4_(static_cast<std::int16_t>((params.min_disparity - 1) * kDisparityScale)) {
+  std::lock_guard<std::mutex> lock(*frame_mutex_);
+  try {
+    allocate();
+    // Buffers are allocated lazily by most drivers: a sum beyond the device is caught here, with
+    // the numbers, rather than as an allocation failure in some kernel of the first frame.
+    const std::uint64_t have = rt_->device().global_memory;
+    if (have != 0 && device_bytes_ > have)
+      throw std::runtime_error("the opencl backend needs " + mib(device_bytes_) + " of device memory for " +
+                               std::to_string(width) + "x" + std::to_string(height) + " images; OpenCL device " +
+                               rt_->device().name + " has " + mib(have));
+    // A blank frame builds every kernel this configuration uses (the runtime keeps the programs),
+    // colour conversion of both byte orders included, and touches every buffer once (drivers
+    // commit memory on first use), so that the first frame is timed like any other.
+    const std::vector<std::uint8_t> zeros(input_[0].width * std::size_t{3} * input_[0].height, 0);
+    for (int v = 0; v < 2; ++v) {
+      rt_->queue().enqueueWriteBuffer(input_[v].bytes, CL_TRUE, 0, zeros.size(), zeros.data());
+      for (PixelFormat format : {PixelFormat::Rgb8, PixelFormat::Bgr8}) {
+        input_[v].format = format;
+        input_[v].stride = static_cast<std::size_t>(width_) * 3;
+        to_gray(*rt_, input_[v], full_gray_[v][0]);
+      }
+    }
+    rt_->reset_times();
+    run_levels();
+    write_outputs();
+    rt_->queue().finish();
+    rt_->reset_times();
+  } catch (const cl::Error& e) {
+    rethrow_cl(rt_->device(), e);
+  }
+  timings_.reserve(kTimingLabels.size() + 4);
+  for (const char* label : kTimingLabels) timings_.push_back({label, 0.0});
+}
+
+Pipeline::~Pipeline() = default;
+
+template <typename T>
+void Pipeline::plane(DevicePlane<T>& p, int w, int h) {
+  p.reset(*rt_, w, h);
+  device_bytes_ += p.bytes();
+}
+
+void Pipeline::allocate() {
+  const StereoParams& p = params_;
+  // Colour input arrives as the caller's bytes, in packed rows of the widest format; gray input
+  // goes straight into the first gray plane.
+  for (int v = 0; v < 2; ++v) {
+    const std::size_t bytes = static_cast<std::size_t>(width_) * 3 * height_;
+    input_[v].bytes = rt_->buffer(bytes, CL_MEM_READ_ONLY);
+    input_[v].width = width_;
+    input_[v].height = height_;
+    device_bytes_ += bytes;
+  }
+  const int scale_steps = log2_exact(p.working_scale);
+  int lw = width_, lh = height_;
+  for (int v = 0; v < 2; ++v) full_gray_[v].resize(scale_steps + 1);
+  for (int s = 0; s <= scale_steps; ++s) {
+    for (int v = 0; v < 2; ++v) plane(full_gray_[v][s], lw, lh);
+    if (s < scale_steps) lw = (lw + 1) / 2, lh = (lh + 1) / 2;
+  }
+  levels_.resize(p.pyramid_levels);
+  const int views = need_right_ ? 2 : 1;
+  for (int l = 0; l < p.pyramid_levels; ++l) {
+    Level& L = levels_[l];
+    L.width = lw;
+    L.height = lh;
+    L.scale_log2 = scale_steps + l;
+    L.dmin = level_min(p.min_disparity, L.scale_log2);
+    L.dmax = level_max(p.max_disparity(), L.scale_log2);
+    L.shd_window = l == 0 ? p.shd_window : p.coarse_shd_window;
+    L.refine = l == 0 || p.refine_all_levels;
+    L.speckle = p.speckle_size >> (2 * L.scale_log2);
+    for (int v = 0; v < 2; ++v) {
+      // Level 0 of the pyramid is the last working-scale reduction itself.
+      if (l > 0) plane(L.image[v], lw, lh);
+      L.codes[v].words = census_words(p.census_window);
+      for (int k = 0; k < L.codes[v].words; ++k) plane(L.codes[v].plane[k], lw, lh);
+    }
+    for (int v = 0; v < views; ++v) {
+      plane(L.disparity[v], lw, lh);
+      plane(L.scratch[v], lw, lh);
+    }
+    if (L.refine && L.speckle > 1) L.host.reset(lw, lh);
+    lw = (lw + 1) / 2;
+    lh = (lh + 1) / 2;
+  }
+  if (p.speckle_size > 0) {
+    speckle_scratch_.label.reset(levels_[0].width, levels_[0].height);
+    speckle_scratch_.stack =
+        allocate_aligned<std::int32_t>(static_cast<std::size_t>(levels_[0].width) * levels_[0].height);
+  }
+  for (int v = 0; v < (options_.compute_right ? 2 : 1); ++v) {
+    if (scale_steps > 0) plane(upscaled_[v], width_, height_);
+    plane(out_q4_[v], width_, height_);
+  }
+  plane(out_float_, width_, height_);
+}
+
+const DevicePlane<std::uint8_t>& Pipeline::level_image(int l, int v) const {
+  return l == 0 ? full_gray_[v].back() : levels_[l].image[v];
+}
+
+// One view to its gray plane: gray bytes straight into the plane (the device has nothing to
+// convert), colour bytes into the input buffer and through to_gray. Blocking, so the caller may
+// reuse its pixels as soon as compute() returns.
+void Pipeline::upload_input(const ImageView& image, int v) {
+  const std::array<std::size_t, 3> origin{0, 0, 0};
+  const std::size_t row_bytes = static_cast<std::size_t>(width_) * bytes_per_pixel(image.format);
+  const std::array<std::size_t, 3> region{row_bytes, static_cast<std::size_t>(height_), 1};
+  const std::size_t host_pitch = static_cast<std::size_t>(image.stride);
+  if (image.format == PixelFormat::Gray8) {
+    DevicePlane<std::uint8_t>& gray = full_gray_[v][0];
+    rt_->queue().enqueueWriteBufferRect(gray.buffer, CL_TRUE, origin, origin, region, gray.stride, 0, host_pitch,
+                                        0, image.data);
+    return;
+  }
+  DeviceImage& in = input_[v];
+  in.format = image.format;
+  in.stride = row_bytes;
+  rt_->queue().enqueueWriteBufferRect(in.bytes, CL_TRUE, origin, origin, region, in.stride, 0, host_pitch, 0,
+                                      image.data);
+  to_gray(*rt_, in, full_gray_[v][0]);
+}
+
+void Pipeline::run_levels() {
+  const int views = need_right_ ? 2 : 1;
+  for (int v = 0; v < 2; ++v) {
+    for (std::size_t s = 1; s < full_gray_[v].size(); ++s) pyramid_down(*rt_, full_gray_[v][s - 1], full_gray_[v][s]);
+    for (std::size_t l = 1; l < levels_.size(); ++l)
+      pyramid_down(*rt_, level_image(static_cast<int>(l) - 1, v), levels_[l].image[v]);
+  }
+
+  const CensusConfig census{params_.census, params_.census_window, params_.mct_kernel};
+  for (int l = static_cast<int>(levels_.size()) - 1; l >= 0; --l) {
+    Level& L = levels_[l];
+    for (int v = 0; v < 2; ++v) census_transform(*rt_, level_image(l, v), census, L.codes[v]);
+
+    const bool coarsest = l + 1 == static_cast<int>(levels_.size());
+    for (int v = 0; v < views; ++v) {
+      // Each view searches around the coarser level's map of the same view.
+      const DevicePlane<std::int16_t>* prior = coarsest ? nullptr : &levels_[l + 1].disparity[v];
+      const MatchConfig config{v == 0 ? -1 : +1, L.shd_window, params_.subpixel && l == 0, params_.uniqueness_ratio};
+      match(*rt_, L.codes[v], L.codes[1 - v], prior, L.dmin, L.dmax, params_.search_radius, config, popcount_,
+            L.disparity[v]);
+    }
+    if (L.refine) refine(L, l == 0);
+  }
+}
+
+// Matcher::Impl::refine on the device. At the finest level the right map only serves the left
+// map's LR check, so unless the caller asked for it, its refinement stops there.
+void Pipeline::refine(Level& L, bool finest) {
+  const int views = need_right_ ? 2 : 1;
+  const int kept = finest && !options_.compute_right ? 1 : views;
+  if (params_.median_size > 0) {
+    for (int v = 0; v < views; ++v) {
+      median_filter(*rt_, L.disparity[v], params_.median_size, L.scratch[v]);
+      std::swap(L.disparity[v], L.scratch[v]);
+    }
+  }
+  if (params_.lr_check) {
+    // Both checks read the maps as they were before either was checked.
+    for (int v = 0; v < kept; ++v)
+      lr_check(*rt_, L.disparity[v], L.disparity[1 - v], v == 0 ? -1 : +1, 16 * params_.lr_threshold, L.scratch[v]);
+    for (int v = 0; v < kept; ++v) std::swap(L.disparity[v], L.scratch[v]);
+  }
+  if (L.speckle > 1)
+    for (int v = 0; v < kept; ++v) remove_speckles_on_host(L, v, L.speckle);
+  for (int v = 0; v < kept; ++v) fill_invalid(*rt_, L.disparity[v], params_.fill);
+  if (params_.post_median_size > 0) {
+    for (int v = 0; v < kept; ++v) {
+      median_filter(*rt_, L.disparity[v], params_.post_median_size, L.scratch[v]);
+      std::swap(L.disparity[v], L.scratch[v]);
+    }
+  }
+}
+
+// Connected components are a poor fit for a device (a flood fill is sequential; a parallel
+// labelling needs many passes), so speckle removal runs on the host with the cpu backend's stage:
+// the map comes down, loses its small regions and goes back. The download waits for the kernels
+// before it; the upload is blocking, so `host` is free again when this returns.
+void Pipeline::remove_speckles_on_host(Level& L, int v, int speckle) {
+  // The kernels before it are the kernels' time, not this step's.
+  rt_->queue().finish();
+  Stopwatch clock;
+  download(*rt_, L.disparity[v], L.host);
+  cpu::remove_speckles(L.host, speckle, 16, speckle_scratch_);
+  upload(*rt_, L.host, L.disparity[v]);
+  speckle_ms_ += clock.lap_ms();
+}
+
+void Pipeline::write_outputs() {
+  const int scale = params_.working_scale;
+  for (int v = 0; v < (options_.compute_right ? 2 : 1); ++v) {
+    const DevicePlane<std::int16_t>* result = &levels_[0].disparity[v];
+    if (scale > 1) {
+      upscale(*rt_, *result, scale, 16 * params_.min_disparity, 16 * params_.max_disparity(), upscaled_[v]);
+      result = &upscaled_[v];
+    }
+    // The float map exists for the left view only, as the Matcher's disparity().
+    to_output(*rt_, *result, invalid_q4_, out_q4_[v], v == 0 ? &out_float_ : nullptr);
+  }
+}
+
+void Pipeline::compute(const ImageView& left, const ImageView& right, Plane<std::int16_t> (&q4)[2]) {
+  std::lock_guard<std::mutex> lock(*frame_mutex_);
+  Stopwatch frame, clock;
+  double upload_ms = 0, download_ms = 0, frame_ms = 0;
+  try {
+    rt_->reset_times();
+    speckle_ms_ = 0;
+    upload_input(left, 0);
+    upload_input(right, 1);
+    upload_ms = clock.lap_ms();
+    run_levels();
+    write_outputs();
+    // Waiting here first keeps the kernels' tail out of the download's time.
+    rt_->queue().finish();
+    clock.lap_ms();
+    for (int v = 0; v < (options_.compute_right ? 2 : 1); ++v) download(*rt_, out_q4_[v], q4[v]);
+    download_ms = clock.lap_ms();
+    frame_ms = frame.lap_ms();
+  } catch (const cl::Error& e) {
+    rethrow_cl(rt_->device(), e);
+  }
+
+  for (StageTime& t : timings_) t.ms = 0;
+  auto add = [&](std::string_view label, double ms) {
+    auto it = std::find_if(timings_.begin(), timings_.end(), [&](const StageTime& t) { return t.stage == label; });
+    // A kernel label outside the list gets a place of its own, before "frame".
+    if (it == timings_.end()) it = timings_.insert(timings_.end() - 1, {std::string(label), 0.0});
+    it->ms += ms;
+  };
+  add("upload", upload_ms);
+  add("speckle", speckle_ms_);
+  add("download", download_ms);
+  for (const auto& [label, ms] : rt_->kernel_times()) add(label, ms);
+  timings_.back().ms = frame_ms;
+}
+
+void Pipeline::download_float(Plane<float>& disparity) {
+  std::lock_guard<std::mutex> lock(*frame_mutex_);
+  try {
+    download(*rt_, out_float_, disparity);
+  } catch (const cl::Error& e) {
+    rethrow_cl(rt_->device(), e);
+  }
+}
+
+std::string Pipeline::device_name() const { return rt_->device().name + " (" + rt_->device().platform + ")"; }
+
+}  // namespace mctstereo::detail::opencl

@@ -1,0 +1,389 @@
+// The whole pipeline on the opencl backend: equal to the cpu backend bit for bit (left and right
+// maps) for every preset and the awkward cases, colour input with padded rows, several frames and
+// matchers on one device; the float map, the stage times, device choice and Backend::Auto.
+#include <cmath>
+#include <cstdint>
+#include <ostream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "mctstereo/matcher.hpp"
+#include "opencl_test_util.hpp"
+#include "test_util.hpp"
+
+namespace mctstereo::test {
+namespace {
+
+// A textured pair with a smooth disparity field, so that the coarse-to-fine path has real priors.
+struct Pair {
+  Plane<std::uint8_t> left, right;
+  ImageView left_view() const { return {left.row(0), left.width(), left.height(), left.stride(), PixelFormat::Gray8}; }
+  ImageView right_view() const {
+    return {right.row(0), right.width(), right.height(), right.stride(), PixelFormat::Gray8};
+  }
+};
+
+Pair make_pair(int w, int h, int max_disp, std::uint32_t seed) {
+  Pair p{random_texture(w, h, seed), Plane<std::uint8_t>(w, h)};
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const int d = (max_disp * (x + 2 * y)) / (w + 2 * h + 1);
+      p.right.at(x, y) = p.left.at(std::min(x + d, w - 1), y);
+    }
+  return p;
+}
+
+// The device the tests run on, as MatcherOptions::device names it.
+std::string device_of(const detail::opencl::Runtime& rt) { return std::to_string(rt.device().index); }
+
+std::vector<std::int16_t> pixels(MapView<const std::int16_t> view) {
+  std::vector<std::int16_t> out;
+  for (int y = 0; y < view.height; ++y) out.insert(out.end(), view.row(y), view.row(y) + view.width);
+  return out;
+}
+
+std::string describe_difference(const std::vector<std::int16_t>& a, const std::vector<std::int16_t>& b, int w) {
+  if (a.size() != b.size()) return "sizes differ";
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (a[i] != b[i])
+      return "(" + std::to_string(i % w) + ", " + std::to_string(i / w) + "): " + std::to_string(a[i]) + " vs " +
+             std::to_string(b[i]);
+  return {};
+}
+
+struct Maps {
+  std::vector<std::int16_t> left, right;
+};
+
+Maps run(const ImageView& left, const ImageView& right, const StereoParams& params, Backend backend,
+         const std::string& device, bool compute_right) {
+  MatcherOptions options;
+  options.compute_right = compute_right;
+  options.device = device;
+  Matcher m(left.width, left.height, params, backend, options);
+  EXPECT_EQ(m.backend(), backend);
+  m.compute(left, right);
+  return {pixels(m.disparity_q4()), compute_right ? pixels(m.right_disparity_q4()) : std::vector<std::int16_t>{}};
+}
+
+// opencl equals cpu on the pair: the left map alone (the right view's refinement stops at the LR
+// check) and both maps with compute_right.
+void expect_equal_to_cpu(const Pair& pair, const StereoParams& params, const std::string& device) {
+  const int w = pair.left.width();
+  for (bool right : {false, true}) {
+    const Maps cpu = run(pair.left_view(), pair.right_view(), params, Backend::Cpu, "", right);
+    const Maps ocl = run(pair.left_view(), pair.right_view(), params, Backend::OpenCL, device, right);
+    EXPECT_EQ(describe_difference(ocl.left, cpu.left, w), "") << "left map, compute_right " << right;
+    if (right) EXPECT_EQ(describe_difference(ocl.right, cpu.right, w), "") << "right map";
+  }
+}
+
+struct Case {
+  std::string name;
+  StereoParams params;
+  int w, h;
+};
+
+// Every preset, then the cases where coarse to fine, refinement or sizes are awkward. One test
+// each: a case builds its own kernels (on PoCL, a fraction of a second per program).
+std::vector<Case> cases() {
+  std::vector<Case> out;
+  for (const std::string& name : preset_names()) {
+    StereoParams p = preset(name);
+    p.num_disparities = 24;
+    out.push_back({name, p, 97, 61});
+  }
+  StereoParams neg = preset("balanced");
+  neg.min_disparity = -7;
+  neg.num_disparities = 30;
+  out.push_back({"negative_min", neg, 81, 33});
+  StereoParams wide = preset("quality");
+  wide.num_disparities = 38;
+  out.push_back({"range_nearly_image_width", wide, 40, 20});
+  StereoParams scaled = preset("realtime");
+  scaled.working_scale = 2;
+  scaled.num_disparities = 32;
+  out.push_back({"working_scale_2", scaled, 75, 45});
+  StereoParams scaled4 = preset("balanced");
+  scaled4.working_scale = 4;
+  scaled4.pyramid_levels = 2;
+  scaled4.min_disparity = -5;
+  scaled4.num_disparities = 40;
+  out.push_back({"working_scale_4_negative_min", scaled4, 130, 66});
+  StereoParams unique = preset("balanced");
+  unique.uniqueness_ratio = 10;
+  unique.fill = FillMode::Nearest;
+  unique.census = CensusKind::ModifiedCensus;
+  unique.census_window = 7;
+  unique.mct_kernel = MeanKernel::Box;
+  out.push_back({"uniqueness_mct7_box_nearest", unique, 64, 40});
+  StereoParams finest = preset("balanced");
+  finest.refine_all_levels = false;
+  finest.speckle_size = 400;  // speckle removal at the finest level only, large regions
+  finest.num_disparities = 24;
+  out.push_back({"finest_only_large_speckles", finest, 90, 50});
+  StereoParams plain = preset("balanced");
+  plain.median_size = 0;
+  plain.post_median_size = 0;
+  plain.lr_check = false;
+  plain.speckle_size = 0;
+  plain.fill = FillMode::None;
+  plain.shd_window = 1;
+  plain.coarse_shd_window = 1;
+  plain.num_disparities = 20;
+  out.push_back({"no_refinement_hamming", plain, 50, 30});
+  StereoParams tiny = preset("realtime");
+  tiny.num_disparities = 4;
+  out.push_back({"tiny_17x5", tiny, 17, 5});
+  StereoParams single = tiny;
+  single.num_disparities = 1;
+  out.push_back({"one_column", single, 1, 64});
+  out.push_back({"one_row", tiny, 64, 1});
+  StereoParams odd = preset("mr-mct-5x5");
+  odd.num_disparities = 21;
+  out.push_back({"odd_131x37", odd, 131, 37});
+  return out;
+}
+
+// Test logs name the case, not its bytes.
+void PrintTo(const Case& c, std::ostream* os) { *os << c.name << " " << c.w << "x" << c.h; }
+
+class OpenclPipelineCase : public ::testing::TestWithParam<Case> {};
+
+TEST_P(OpenclPipelineCase, EqualsCpuBitForBit) {
+  MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
+  const Case& c = GetParam();
+  const int max_disp = c.params.max_disparity() > 0 ? std::min(c.params.max_disparity(), c.w / 2) : 0;
+  expect_equal_to_cpu(make_pair(c.w, c.h, max_disp, 11), c.params, device_of(*rt));
+}
+
+std::string case_name(const ::testing::TestParamInfo<Case>& info) {
+  std::string name = info.param.name;
+  for (char& ch : name)
+    if (ch == '-') ch = '_';
+  return name;
+}
+
+INSTANTIATE_TEST_SUITE_P(PresetsAndAwkwardCases, OpenclPipelineCase, ::testing::ValuesIn(cases()), case_name);
+
+// Colour views whose channels differ (so the conversion weights matter), in rows longer than the
+// pixels, as RGB on the left and BGR on the right.
+TEST(OpenclPipeline, ColourInputWithPaddedRowsEqualsCpu) {
+  MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
+  const int w = 71, h = 35, stride = 3 * w + 7;
+  const Pair pair = make_pair(w, h, 12, 5);
+  const Plane<std::uint8_t> tint = random_texture(w, h, 6);
+  std::vector<std::uint8_t> rgb(static_cast<std::size_t>(stride) * h, 0xee), bgr(rgb.size(), 0xee);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      std::uint8_t* l = &rgb[static_cast<std::size_t>(y) * stride + 3 * x];
+      std::uint8_t* r = &bgr[static_cast<std::size_t>(y) * stride + 3 * x];
+      l[0] = pair.left.at(x, y), l[1] = tint.at(x, y), l[2] = static_cast<std::uint8_t>(255 - pair.left.at(x, y));
+      r[2] = pair.right.at(x, y), r[1] = tint.at(x, y), r[0] = static_cast<std::uint8_t>(255 - pair.right.at(x, y));
+    }
+  const ImageView left{rgb.data(), w, h, stride, PixelFormat::Rgb8};
+  const ImageView right{bgr.data(), w, h, stride, PixelFormat::Bgr8};
+  StereoParams p = preset("balanced");
+  p.num_disparities = 16;
+  const Maps cpu = run(left, right, p, Backend::Cpu, "", true);
+  const Maps ocl = run(left, right, p, Backend::OpenCL, device_of(*rt), true);
+  EXPECT_EQ(describe_difference(ocl.left, cpu.left, w), "");
+  EXPECT_EQ(describe_difference(ocl.right, cpu.right, w), "");
+  // Gray rows with padding go straight to the device: the same map as a packed copy would give.
+  const ImageView left_gray = pair.left_view();
+  ASSERT_GT(left_gray.stride, w);
+  const Maps gray_cpu = run(left_gray, pair.right_view(), p, Backend::Cpu, "", false);
+  const Maps gray_ocl = run(left_gray, pair.right_view(), p, Backend::OpenCL, device_of(*rt), false);
+  EXPECT_EQ(describe_difference(gray_ocl.left, gray_cpu.left, w), "");
+}
+
+// Buffers are reused frame after frame, and matchers of other sizes and parameters share the
+// device (and its programs) between them.
+TEST(OpenclPipeline, FramesAndMatchersOnOneDeviceStayExact) {
+  MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
+  MatcherOptions options;
+  options.device = device_of(*rt);
+  StereoParams pa = preset("balanced"), pb = preset("mr-mct-5x5");
+  pa.num_disparities = 20;
+  pb.num_disparities = 28;
+  Matcher a(80, 48, pa, Backend::OpenCL, options), b(66, 40, pb, Backend::OpenCL, options);
+  Matcher a_cpu(80, 48, pa, Backend::Cpu), b_cpu(66, 40, pb, Backend::Cpu);
+  for (std::uint32_t seed : {1u, 2u, 3u}) {
+    SCOPED_TRACE(seed);
+    const Pair pair_a = make_pair(80, 48, 15, seed), pair_b = make_pair(66, 40, 20, seed + 10);
+    a.compute(pair_a.left_view(), pair_a.right_view());
+    b.compute(pair_b.left_view(), pair_b.right_view());
+    a_cpu.compute(pair_a.left_view(), pair_a.right_view());
+    b_cpu.compute(pair_b.left_view(), pair_b.right_view());
+    EXPECT_EQ(describe_difference(pixels(a.disparity_q4()), pixels(a_cpu.disparity_q4()), 80), "");
+    EXPECT_EQ(describe_difference(pixels(b.disparity_q4()), pixels(b_cpu.disparity_q4()), 66), "");
+  }
+}
+
+TEST(OpenclPipeline, FloatMapAndInvalidValueAsCpu) {
+  MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
+  StereoParams p = preset("balanced");
+  p.min_disparity = -3;
+  p.num_disparities = 20;
+  p.fill = FillMode::None;
+  p.uniqueness_ratio = 30;  // leaves invalid pixels
+  const Pair pair = make_pair(120, 40, 10, 9);
+  MatcherOptions options;
+  options.device = device_of(*rt);
+  Matcher ocl(120, 40, p, Backend::OpenCL, options), cpu(120, 40, p, Backend::Cpu);
+  ocl.compute(pair.left_view(), pair.right_view());
+  cpu.compute(pair.left_view(), pair.right_view());
+  EXPECT_EQ(ocl.invalid_q4(), -4 * 16);
+  int invalid = 0;
+  for (int y = 0; y < 40; ++y)
+    for (int x = 0; x < 120; ++x) {
+      const float f = ocl.disparity().at(x, y), g = cpu.disparity().at(x, y);
+      ASSERT_EQ(std::isnan(f), std::isnan(g)) << x << ", " << y;
+      if (std::isnan(f)) {
+        ++invalid;
+        EXPECT_EQ(ocl.disparity_q4().at(x, y), ocl.invalid_q4());
+      } else {
+        ASSERT_EQ(f, g) << x << ", " << y;
+        EXPECT_EQ(f, ocl.disparity_q4().at(x, y) / 16.0f);
+      }
+    }
+  EXPECT_GT(invalid, 0);
+  // The float map follows the next frame too.
+  const Pair other = make_pair(120, 40, 10, 10);
+  ocl.compute(other.left_view(), other.right_view());
+  cpu.compute(other.left_view(), other.right_view());
+  for (int y = 0; y < 40; ++y)
+    for (int x = 0; x < 120; ++x) {
+      const float f = ocl.disparity().at(x, y), g = cpu.disparity().at(x, y);
+      ASSERT_TRUE(f == g || (std::isnan(f) && std::isnan(g))) << x << ", " << y;
+    }
+}
+
+TEST(OpenclPipeline, TimingsNameTheKernelsAndTheHostSteps) {
+  MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
+  StereoParams p = preset("realtime");  // no speckle removal, working scale 1
+  p.num_disparities = 16;
+  MatcherOptions options;
+  options.device = device_of(*rt);
+  Matcher m(64, 32, p, Backend::OpenCL, options);
+  EXPECT_NE(m.device_name().find(rt->device().name), std::string::npos) << m.device_name();
+  EXPECT_TRUE(m.notice().empty());
+  const Pair pair = make_pair(64, 32, 8, 4);
+  m.compute(pair.left_view(), pair.right_view());
+  std::vector<std::string> labels;
+  for (const StageTime& t : m.timings()) labels.push_back(t.stage);
+  EXPECT_EQ(labels, (std::vector<std::string>{"upload", "gray", "pyramid", "census", "match", "median", "lr_check",
+                                              "speckle", "fill", "upscale", "output", "download", "frame"}));
+  const auto ms = [&](const std::string& stage) {
+    for (const StageTime& t : m.timings())
+      if (t.stage == stage) return t.ms;
+    return -1.0;
+  };
+  // Gray input needs no conversion kernel, speckle removal is off and the scale is 1.
+  EXPECT_EQ(ms("gray"), 0.0);
+  EXPECT_EQ(ms("speckle"), 0.0);
+  EXPECT_EQ(ms("upscale"), 0.0);
+  EXPECT_GT(ms("frame"), 0.0);
+  for (const StageTime& t : m.timings()) EXPECT_GE(t.ms, 0.0) << t.stage;
+}
+
+TEST(OpenclPipeline, DeviceChoiceAndAuto) {
+  MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
+  StereoParams p = preset("realtime");
+  p.num_disparities = 8;
+  MatcherOptions options;
+  options.device = "999";
+  try {
+    Matcher(32, 16, p, Backend::OpenCL, options);
+    FAIL() << "device 999 should not exist";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("999 does not exist"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(rt->device().name), std::string::npos) << "lists the devices: " << e.what();
+  }
+
+  // Auto takes the device a selector names, and falls back with a notice when it names none.
+  options.device = device_of(*rt);
+  const Matcher named(32, 16, p, Backend::Auto, options);
+  EXPECT_EQ(named.backend(), Backend::OpenCL);
+  EXPECT_EQ(named.notice(), "");
+  options.device = "no-such-opencl-device";
+  const Matcher fallback(32, 16, p, Backend::Auto, options);
+  EXPECT_EQ(fallback.backend(), Backend::Cpu);
+  EXPECT_EQ(fallback.notice(), "no OpenCL device matches 'no-such-opencl-device': running on the cpu backend");
+  EXPECT_EQ(fallback.device_name(), "");
+
+  // Without a selector, Auto wants a GPU.
+  bool gpu = false;
+  for (const OpenclDevice& d : opencl_devices()) gpu = gpu || d.type == "GPU";
+  const Matcher automatic(32, 16, p, Backend::Auto);
+  EXPECT_EQ(automatic.backend(), gpu ? Backend::OpenCL : Backend::Cpu);
+  EXPECT_EQ(automatic.notice(), gpu ? "" : "no OpenCL GPU found: running on the cpu backend");
+}
+
+TEST(OpenclPipeline, DevicesAndBackendNames) {
+  MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
+  EXPECT_TRUE(have_opencl());
+  const auto devices = opencl_devices();
+  const auto internal = detail::opencl::list_devices();
+  ASSERT_EQ(devices.size(), internal.size());
+  for (std::size_t i = 0; i < devices.size(); ++i) {
+    EXPECT_EQ(devices[i].index, static_cast<int>(i));
+    EXPECT_EQ(devices[i].name, internal[i].name);
+    EXPECT_EQ(devices[i].type == "GPU", internal[i].gpu);
+    EXPECT_GT(devices[i].compute_units, 0);
+    EXPECT_GT(devices[i].global_memory, 0u);
+  }
+  EXPECT_EQ(parse_backend("opencl"), Backend::OpenCL);
+  EXPECT_EQ(parse_backend("auto"), Backend::Auto);
+  EXPECT_EQ(to_string(Backend::OpenCL), "opencl");
+  EXPECT_EQ(to_string(Backend::Auto), "auto");
+  try {
+    parse_backend("gpu");
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("reference, cpu, opencl, auto"), std::string::npos) << e.what();
+  }
+}
+
+// The largest image the parameters allow needs an input buffer of 3 x 32768 x 32768 bytes: more
+// than most devices can hold in one buffer. The matcher says so before anything else is allocated.
+TEST(OpenclPipeline, ImageTooLargeForTheDeviceIsAClearError) {
+  MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
+  const std::uint64_t input_bytes = std::uint64_t{3} * 32768 * 32768;
+  if (rt->device().max_allocation == 0 || rt->device().max_allocation >= input_bytes)
+    GTEST_SKIP() << "the device holds a buffer of " << input_bytes << " bytes";
+  StereoParams p = preset("realtime");
+  p.num_disparities = 64;
+  MatcherOptions options;
+  options.device = device_of(*rt);
+  try {
+    Matcher(32768, 32768, p, Backend::OpenCL, options);
+    FAIL() << "the matcher should not fit";
+  } catch (const std::runtime_error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(rt->device().name), std::string::npos) << what;
+    EXPECT_NE(what.find("cannot hold a buffer of " + std::to_string(input_bytes) + " bytes"), std::string::npos)
+        << what;
+  }
+}
+
+TEST(OpenclPipeline, RejectsWrongInputAsCpu) {
+  MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
+  StereoParams p = preset("realtime");
+  p.num_disparities = 16;
+  MatcherOptions options;
+  options.device = device_of(*rt);
+  Matcher m(64, 32, p, Backend::OpenCL, options);
+  std::vector<std::uint8_t> px(64 * 32);
+  const ImageView good{px.data(), 64, 32, 64, PixelFormat::Gray8};
+  EXPECT_THROW(m.compute({px.data(), 63, 32, 64, PixelFormat::Gray8}, good), std::invalid_argument);
+  EXPECT_THROW(m.compute(good, {nullptr, 64, 32, 64, PixelFormat::Gray8}), std::invalid_argument);
+  EXPECT_THROW(m.compute(good, {px.data(), 64, 32, 32, PixelFormat::Gray8}), std::invalid_argument);
+  StereoParams bad = p;
+  bad.num_disparities = 65;
+  EXPECT_THROW(Matcher(64, 32, bad, Backend::OpenCL, options), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace mctstereo::test
