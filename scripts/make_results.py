@@ -10,6 +10,7 @@ Inputs (in --results, default docs/results):
   bench_640x480.json        mctstereo bench at one size, every preset (the headline ratios)
   bench_thesis.json         mctstereo bench over the thesis sizes, ranges and thread counts
   bench_backends.json       mctstereo bench with --backend reference,cpu
+  bench_opencl.json         mctstereo bench with --backend cpu,opencl over the thesis sizes
 and, optionally, the disparity previews of `eval --save` (in --previews, default
 build/results/previews) with the scenes' own images and ground truth (the paths in the eval JSON,
 relative to the repository root).
@@ -50,8 +51,10 @@ EVAL_RADIOMETRIC = "eval_radiometric.json"
 BENCH_HEADLINE = "bench_640x480.json"
 BENCH_THESIS = "bench_thesis.json"
 BENCH_BACKENDS = "bench_backends.json"
+BENCH_OPENCL = "bench_opencl.json"
 # The step of scripts/measure_results.sh that writes each file, for the error message.
-INPUT_STEPS = {EVAL_2003: 1, EVAL_2005: 2, EVAL_RADIOMETRIC: 3, BENCH_HEADLINE: 4, BENCH_THESIS: 5, BENCH_BACKENDS: 6}
+INPUT_STEPS = {EVAL_2003: 1, EVAL_2005: 2, EVAL_RADIOMETRIC: 3, BENCH_HEADLINE: 4, BENCH_THESIS: 5, BENCH_BACKENDS: 6,
+               BENCH_OPENCL: 7}
 
 THESIS_VARIANTS = [("mct-full", "MCT-full"), ("mr-mct-full", "MR-MCT-full"), ("mr-mct-5x5", "MR-MCT-5x5")]
 SCENE_ORDER = ["tsukuba", "venus", "teddy", "cones", "aloe", "art"]
@@ -291,7 +294,10 @@ class BenchRun:
                    "frames": r.whole("frames"), "median_ms": r.num("median_ms"), "p95_ms": r.num("p95_ms"),
                    "fps": r.num("fps"), "ratio": r.num("ratio_to_stereobm", nullable=True),
                    "backend": r.text("backend") if rec_is_mctstereo(r) else None, "stages": None}
-            if rec["backend"] is not None:
+            if rec["backend"] == "opencl":  # per-kernel device times, upload, download and frame
+                st = r.obj("stage_median_ms")
+                rec["stages"] = {k: st.num(k) for k in st.keys()}
+            elif rec["backend"] is not None:
                 st = r.obj("stage_median_ms")
                 rec["stages"] = {k: st.num(k) for k in STAGES + ["frame"]}
             self.records.append(rec)
@@ -304,6 +310,7 @@ class BenchRun:
                                 "threads": r.whole("threads"), "estimate": r.num("estimate_memory_bytes"),
                                 "peak": r.num("peak_resident_bytes"), "baseline": r.num("baseline_resident_bytes"),
                                 "peak_measure": r.text("peak_measure")})
+        self.opencl_device = s.text("opencl_device") if s.has("opencl_device") else None
         self.skipped = [(k.text("method"), k.text("size"), k.value.get("num_disparities"), k.text("reason"))
                         for k in doc.array("skipped")]
 
@@ -1246,6 +1253,55 @@ def speed_backends(report, bench, file_name):
         report.add(f"[{file_name}]({{results}}/{file_name}) holds no pair of reference and cpu records.")
 
 
+def speed_opencl(report, bench, file_name):
+    report.add("### The opencl backend")
+    device = bench.opencl_device or "(device not recorded)"
+    report.add(f"The opencl backend on {device}, against the cpu backend in the same run (2 threads unless the "
+               "command says otherwise). Its maps equal the cpu backend's bit for bit (tests/opencl/); on a CPU "
+               "through PoCL it shows the cost of the OpenCL path, not GPU speed. Frame times include the upload "
+               "of both images and the download of the map.")
+    report.add(code(bench.command(file_name)))
+    report.add(machine_line(bench.settings, bench.file, with_threads=False))
+    threads = bench.thread_settings[0]
+    rows = []
+    for size in bench.sizes:
+        for d in bench.disparities:
+            for m in bench.presets:
+                cpu = bench.find(m, size, d, threads, backend="cpu")
+                ocl = bench.find(m, size, d, threads, backend="opencl")
+                if cpu is None or ocl is None or ocl["backend"] != "opencl":
+                    continue
+                rows.append([size_text(size), d, f"`{m}`", ms(cpu["median_ms"]), ms(ocl["median_ms"]),
+                             f"{cpu['median_ms'] / ocl['median_ms']:.2f}"])
+    slower = [r for r in rows if float(r[5]) < 1.0]
+    if slower:
+        report.losses.append(("Speed", f"The opencl backend on {device} is slower than the cpu backend in "
+                                       f"{len(slower)} of {len(rows)} cases (down to "
+                                       f"{min(float(r[5]) for r in slower):.2f} x cpu)."))
+    if not rows:
+        report.add(f"[{file_name}]({{results}}/{file_name}) holds no pair of cpu and opencl records.")
+        return
+    report.add(table(["size", "disparities", "preset", "cpu ms", "opencl ms", "opencl speed (x cpu)"], rows,
+                     ["---", "---:", "---"] + ["---:"] * 3))
+    # Per-kernel device times (profiling events) of every preset at the first size.
+    size, d = bench.sizes[min(1, len(bench.sizes) - 1)], bench.disparities[0]
+    kernel_rows, labels = [], []
+    for m in bench.presets:
+        ocl = bench.find(m, size, d, threads, backend="opencl")
+        if ocl is None or ocl["backend"] != "opencl":
+            continue
+        for k in ocl["stages"]:
+            if k not in labels:
+                labels.append(k)
+        kernel_rows.append((m, ocl["stages"]))
+    if kernel_rows:
+        report.add(f"Median per frame at {size_text(size)}, {d} disparities, ms: device time of each kernel from "
+                   "OpenCL profiling events, host wall time of upload, download (and speckle removal, which this "
+                   "backend runs on the host) and of the frame.")
+        report.add(table(["preset"] + labels, [[f"`{m}`"] + [ms(st[k]) for k in labels] for m, st in kernel_rows],
+                         ["---"] + ["---:"] * len(labels)))
+
+
 def memory_section(report, bench, file_name):
     report.add("## Memory")
     if not bench.memory:
@@ -1349,10 +1405,12 @@ def build(results_dir, images_dir, output, previews_dir):
     headline = BenchRun(docs[BENCH_HEADLINE])
     thesis = BenchRun(docs[BENCH_THESIS])
     backends = BenchRun(docs[BENCH_BACKENDS])
+    opencl = BenchRun(docs[BENCH_OPENCL])
 
     report = Report(results_dir, images_dir, output, previews_dir)
     runs = [(EVAL_2003, ev2003.settings), (EVAL_2005, ev2005.settings), (EVAL_RADIOMETRIC, radio.settings),
-            (BENCH_HEADLINE, headline.settings), (BENCH_THESIS, thesis.settings), (BENCH_BACKENDS, backends.settings)]
+            (BENCH_HEADLINE, headline.settings), (BENCH_THESIS, thesis.settings), (BENCH_BACKENDS, backends.settings),
+            (BENCH_OPENCL, opencl.settings)]
     header(report, runs)
     quality_2003(report, ev2003)
     quality_2005(report, ev2005)
@@ -1361,11 +1419,13 @@ def build(results_dir, images_dir, output, previews_dir):
     d, t = speed_resolution(report, thesis, BENCH_THESIS)
     speed_stages(report, thesis, BENCH_THESIS, d, t)
     speed_backends(report, backends, BENCH_BACKENDS)
+    speed_opencl(report, opencl, BENCH_OPENCL)
     memory_section(report, thesis, BENCH_THESIS)
     previews_section(report, [(ev2003, "middlebury2003", "Middlebury 2003"),
                               (ev2005, "middlebury2005", "Middlebury 2005/2006")])
     losses_section(report)
-    skipped = [(f, x) for f, run in [(BENCH_HEADLINE, headline), (BENCH_THESIS, thesis), (BENCH_BACKENDS, backends)]
+    skipped = [(f, x) for f, run in [(BENCH_HEADLINE, headline), (BENCH_THESIS, thesis), (BENCH_BACKENDS, backends),
+                                     (BENCH_OPENCL, opencl)]
                for x in run.skipped]
     if skipped:
         report.add("Not measured (from the files' `skipped`): " + "; ".join(

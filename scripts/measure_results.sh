@@ -73,4 +73,8 @@ run "$binary" bench --data data --sizes thesis --num-disparities 64,128,256 --th
 run "$binary" bench --data data --sizes 320x240,640x480 --num-disparities 64 --threads 1 \
   --backend reference,cpu --presets realtime,quality --json "$results/bench_backends.json"
 
+# 7: the opencl backend (PoCL on a CPU, or the first GPU) against the cpu backend.
+run "$binary" bench --data data --sizes thesis --num-disparities 64 --threads 2 --backend cpu,opencl \
+  --presets realtime,quality --json "$results/bench_opencl.json"
+
 run "$python" scripts/make_results.py --results "$results" --previews "$previews"
