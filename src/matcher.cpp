@@ -95,7 +95,11 @@ struct Matcher::Impl {
   std::string notice;  // how Backend::Auto fell back, if it did
 #ifdef MCTSTEREO_HAVE_OPENCL
   std::unique_ptr<detail::opencl::Pipeline> device;  // the opencl backend's driver and buffers
+  // The float map is made when disparity() asks for it, from the last frame's map: most callers
+  // take one of the two forms, and the conversion is a full pass over W x H (5 % of a realtime
+  // frame at 640 x 480).
   bool float_current = true;                         // out_float holds the last frame's map
+  const Plane<std::int16_t>* float_source = nullptr;  // host backends: the last frame's internal map
 #endif
 
   std::vector<Plane<std::uint8_t>> full_gray[2];  // input size, then each working-scale reduction
@@ -267,12 +271,23 @@ struct Matcher::Impl {
       const std::int16_t* src = result.row(y);
       std::int16_t* q4 = out_q4[v].row(y);
       for (int x = 0; x < width; ++x) q4[x] = src[x] == kInvalid ? invalid : src[x];
-      if (v == 0) {
-        float* f = out_float.row(y);
-        for (int x = 0; x < width; ++x)
-          f[x] = src[x] == kInvalid ? NAN : static_cast<float>(src[x]) * (1.0f / kDisparityScale);
-      }
     }
+    if (v == 0) {
+      float_source = &result;
+      float_current = false;
+    }
+  }
+
+  void write_float() {
+    const bool threaded = backend == Backend::Cpu;
+#pragma omp parallel for schedule(static) if (threaded) num_threads(threads)
+    for (int y = 0; y < height; ++y) {
+      const std::int16_t* src = float_source->row(y);
+      float* f = out_float.row(y);
+      for (int x = 0; x < width; ++x)
+        f[x] = src[x] == kInvalid ? NAN : static_cast<float>(src[x]) * (1.0f / kDisparityScale);
+    }
+    float_current = true;
   }
 
   void compute(const ImageView& left, const ImageView& right) {
@@ -375,6 +390,7 @@ MapView<const float> Matcher::disparity() const {
     impl_->float_current = true;
   }
 #endif
+  if (!impl_->float_current && impl_->float_source != nullptr) impl_->write_float();
   const auto& p = impl_->out_float;
   return {p.row(0), p.width(), p.height(), p.stride()};
 }

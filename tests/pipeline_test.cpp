@@ -187,6 +187,35 @@ TEST(Pipeline, OutputConventions) {
   EXPECT_GT(m.timings().back().ms, 0.0);
 }
 
+TEST(Pipeline, FloatMapFollowsEveryFrame) {
+  // The float map is made on demand: after each compute() it must show that frame, whether or not
+  // it was read after the frame before, and reading it allocates nothing.
+  StereoParams p = preset("realtime");
+  p.num_disparities = 24;
+  const Pair near = make_pair(96, 48, 4, 3), far = make_pair(96, 48, 14, 4);
+  Matcher m(96, 48, p);
+  const auto expect_float_matches_q4 = [&](const char* what) {
+    const auto q4 = m.disparity_q4();
+    const long before = g_allocations.load();
+    const auto f = m.disparity();
+    EXPECT_EQ(g_allocations.load() - before, 0) << what;
+    for (int y = 0; y < 48; ++y)
+      for (int x = 0; x < 96; ++x) {
+        const int v = q4.at(x, y);
+        if (v == m.invalid_q4()) ASSERT_TRUE(std::isnan(f.at(x, y))) << what;
+        else ASSERT_EQ(f.at(x, y), v / 16.0f) << what << " at " << x << "," << y;
+      }
+  };
+  m.compute(near.left_view(), near.right_view());
+  expect_float_matches_q4("first frame");
+  m.compute(far.left_view(), far.right_view());
+  m.compute(near.left_view(), near.right_view());  // the middle frame's float map is never read
+  expect_float_matches_q4("third frame");
+  m.compute(far.left_view(), far.right_view());
+  expect_float_matches_q4("fourth frame");
+  EXPECT_NE(m.disparity_q4().at(60, 24), 16 * 4);  // the frames differ where it is checked
+}
+
 TEST(Pipeline, ColourInputEqualsItsLuma) {
   const int w = 64, h = 32;
   std::vector<std::uint8_t> rgb(w * h * 3), gray_l(w * h), gray_r(w * h), bgr(w * h * 3);

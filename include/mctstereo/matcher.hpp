@@ -77,7 +77,9 @@ class Matcher {
   /// Left disparity of the last frame, Q4 (16 x pixels); invalid pixels hold invalid_q4().
   /// The view belongs to the matcher and is overwritten by the next compute().
   MapView<const std::int16_t> disparity_q4() const;
-  /// Left disparity in pixels, NaN where invalid.
+  /// Left disparity in pixels, NaN where invalid. Made from the Q4 map by the first call after
+  /// each compute() (a pass over the map, or a download from the OpenCL device), so a caller that
+  /// only reads disparity_q4() does not pay for it; allocates nothing.
   MapView<const float> disparity() const;
   /// Right-view disparity (Q4; the right pixel x matches left x + d), refined like the left one.
   /// Empty (null data) unless MatcherOptions::compute_right.
