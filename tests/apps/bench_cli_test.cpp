@@ -20,23 +20,18 @@
 
 #include "mctstereo/mctstereo.hpp"
 
+#include "cli_test_util.hpp"
+
 namespace {
 
+using mctstereo::test::kData;
+using mctstereo::test::kProgram;
+using mctstereo::test::read_text;
+using mctstereo::test::Result;
+using mctstereo::test::run_shell;
+using mctstereo::test::shell_quoted;
+
 namespace fs = std::filesystem;
-
-const fs::path kProgram = MCTSTEREO_CLI;
-const fs::path kData = MCTSTEREO_DATA_DIR;
-
-std::string shell_quoted(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
 
 // Just enough JSON to read the report back: every value kind, no escapes beyond \" \\ \/ \n \t.
 struct JsonValue {
@@ -145,11 +140,6 @@ class JsonReader {
 
 JsonValue read_json(const fs::path& path) { return JsonReader(read_text(path)).document(); }
 
-struct Result {
-  int status = -1;
-  std::string output;  // stdout, or stdout and stderr together
-};
-
 class BenchCli : public ::testing::Test {
  protected:
   void SetUp() override {
@@ -170,14 +160,7 @@ class BenchCli : public ::testing::Test {
     const std::string command = "cd " + shell_quoted(folder_.string()) + " && " + shell_quoted(kProgram.string()) +
                                 " bench " + args + " --data " + shell_quoted((kData / "tsukuba").string()) +
                                 (with_stderr ? " 2>&1" : " 2>stderr.txt");
-    Result r;
-    FILE* pipe = ::popen(command.c_str(), "r");
-    if (!pipe) return r;
-    std::array<char, 4096> buf;
-    while (std::size_t n = std::fread(buf.data(), 1, buf.size(), pipe)) r.output.append(buf.data(), n);
-    const int status = ::pclose(pipe);
-    r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    return r;
+    return run_shell(command);
   }
   std::string stderr_text() const { return read_text(folder_ / "stderr.txt"); }
 

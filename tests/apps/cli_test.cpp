@@ -25,23 +25,18 @@
 
 #include "radiometric.hpp"
 
+#include "cli_test_util.hpp"
+
 namespace {
 
+using mctstereo::test::kData;
+using mctstereo::test::kProgram;
+using mctstereo::test::read_text;
+using mctstereo::test::Result;
+using mctstereo::test::run_shell;
+using mctstereo::test::shell_quoted;
+
 namespace fs = std::filesystem;
-
-const fs::path kProgram = MCTSTEREO_CLI;
-const fs::path kData = MCTSTEREO_DATA_DIR;
-
-struct Result {
-  int status = -1;
-  std::string output;  // stdout and stderr together
-};
-
-std::string shell_quoted(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
-}
 
 std::vector<std::uint8_t> read_bytes(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -114,14 +109,7 @@ class Cli : public ::testing::Test {
   Result run(const std::string& args) const {
     const std::string command =
         "cd " + shell_quoted(folder_.string()) + " && " + shell_quoted(kProgram.string()) + " " + args + " 2>&1";
-    Result r;
-    FILE* pipe = ::popen(command.c_str(), "r");
-    if (!pipe) return r;
-    std::array<char, 4096> buf;
-    while (std::size_t n = std::fread(buf.data(), 1, buf.size(), pipe)) r.output.append(buf.data(), n);
-    const int status = ::pclose(pipe);
-    r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    return r;
+    return run_shell(command);
   }
 
   // Runs a command that must fail with `status` and a message containing `message`, leaving the
