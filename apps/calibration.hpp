@@ -1,0 +1,100 @@
+// Stereo calibration for the command line: reading it (Middlebury calib.txt, OpenCV stereo YAML or
+// XML, flags), writing it back, rectifying unrectified pairs, and checking how well a pair is
+// rectified.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <opencv2/core.hpp>
+
+#include <optional>
+#include <string>
+
+#include "mctstereo/depth.hpp"
+
+namespace mctstereo::app {
+
+/// A stereo calibration as a file or the flags give it.
+struct Calibration {
+  /// The geometry of the rectified pair (focal, cx, cy, baseline, doffs, units). For an
+  /// unrectified rig it is the geometry after rectification (from P1, P2 or stereoRectify).
+  StereoGeometry geometry;
+  /// Image size the calibration was made for; 0 x 0 when unknown (flags only).
+  int width = 0, height = 0;
+  /// The raw rig (OpenCV files with K1, D1, K2, D2, R, T): the input must be rectified first.
+  /// R1, R2, P1, P2 and Q are those of the file when it has them, else computed by stereoRectify.
+  bool needs_rectification = false;
+  cv::Mat K1, D1, K2, D2, R, T, R1, R2, P1, P2, Q;
+  /// Disparity range of the scene when the file gives it (Middlebury ndisp, vmin, vmax); 0 = unknown.
+  int ndisp = 0;
+  /// Where it came from, for messages: the file name, or "flags".
+  std::string source;
+};
+
+/// Reads a calibration file, by its content: Middlebury calib.txt (cam0=[f 0 cx; 0 f cy; 0 0 1],
+/// cam1, doffs, baseline, width, height, ndisp, ...) or an OpenCV FileStorage file (.yml, .yaml,
+/// .xml, .json) holding K1, D1, K2, D2, R, T and/or R1, R2, P1, P2, Q, with image_width and
+/// image_height (or width/height). Middlebury baselines are in millimetres; OpenCV translations in
+/// the unit of the calibration target, assumed metres unless the file has a "units" string.
+/// RuntimeError naming the file and the missing or malformed key.
+Calibration read_calibration(const std::string& path);
+
+/// Writes `calibration` as an OpenCV YAML file that read_calibration reads back to the same values.
+void write_calibration(const std::string& path, const Calibration& calibration);
+
+/// RuntimeError when the calibration was made for another image size than width x height (the
+/// rectification maps and the geometry would be wrong), naming both sizes and `image`.
+void check_calibration_fits(const Calibration& calibration, int width, int height, const std::string& image);
+
+/// --calib FILE and the plain flags --focal, --baseline, --cx, --cy, --doffs, --units. Flags
+/// override the file's values; without a file, --focal and --baseline are needed and cx, cy
+/// default to the image centre.
+class CalibrationFlags {
+ public:
+  void add_to(CLI::App& app);
+  /// Whether any calibration was given.
+  bool given() const;
+  /// The calibration of the flags for images of width x height; std::nullopt when none was given.
+  /// UsageError for an incomplete or invalid set of flags; RuntimeError from read_calibration or
+  /// check_calibration_fits.
+  std::optional<Calibration> resolve(int width, int height) const;
+
+ private:
+  std::string file_;
+  std::optional<double> focal_, baseline_, cx_, cy_, doffs_;
+  std::string units_;
+};
+
+/// Rectification of an unrectified rig: the maps are computed once, then every frame is remapped.
+class Rectifier {
+ public:
+  /// For images of width x height. RuntimeError when the calibration does not fit the size.
+  Rectifier(const Calibration& calibration, int width, int height);
+  /// Remaps a pair into the rectified frame (`left_out` and `right_out` are reused between frames).
+  void rectify(const cv::Mat& left, const cv::Mat& right, cv::Mat& left_out, cv::Mat& right_out) const;
+  /// The geometry of the rectified pair.
+  const StereoGeometry& geometry() const { return geometry_; }
+
+ private:
+  cv::Mat left_x_, left_y_, right_x_, right_y_;
+  StereoGeometry geometry_;
+};
+
+/// How well a pair is rectified, from matched features: in a rectified pair a scene point lies on
+/// the same row in both views, so the vertical offsets of good matches should be near 0.
+struct RectificationReport {
+  int features_left = 0, features_right = 0;
+  int matches = 0;              ///< matches kept (mutual best, ratio test, positive disparity range)
+  double median_dy = 0.0;       ///< median of (y_right - y_left), pixels
+  double median_abs_dy = 0.0;   ///< median of |y_right - y_left|
+  double p95_abs_dy = 0.0;      ///< 95th percentile of |y_right - y_left|
+  double max_abs_dy = 0.0;
+  /// One line: "rectified" (median |dy| <= 0.5 px), "slightly off" (<= 1.5 px) or "not rectified",
+  /// with what it means for matching.
+  std::string verdict;
+};
+
+/// Detects and matches features (ORB) between the two views and measures their vertical offsets.
+/// RuntimeError when too few features match to say anything (fewer than 8), naming the reason.
+RectificationReport check_rectification(const cv::Mat& left, const cv::Mat& right);
+
+}  // namespace mctstereo::app

@@ -1,0 +1,87 @@
+// mctstereo: from disparity to depth and point clouds, and the files that hold point clouds.
+//
+// Conventions (docs/PIPELINE.md): a left pixel (x, y) with disparity d lies at depth
+//   Z = focal * baseline / (d + doffs),  X = (x - cx) * Z / focal,  Y = (y - cy) * Z / focal
+// in the frame of the left rectified camera (X right, Y down, Z forward), in the units of the
+// baseline. Pixel centres have integer coordinates, as in OpenCV and Middlebury's calib.txt.
+#pragma once
+
+#include <cstdint>
+#include <iosfwd>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "mctstereo/image.hpp"
+
+namespace mctstereo {
+
+/// The geometry of a rectified stereo pair, in pixels of the images that were matched.
+struct StereoGeometry {
+  double focal = 0.0;     ///< focal length, pixels (> 0)
+  double cx = 0.0;        ///< principal point of the left rectified camera, pixels
+  double cy = 0.0;
+  double baseline = 0.0;  ///< distance between the two optical centres, in `units` (> 0)
+  double doffs = 0.0;     ///< x difference of the principal points, right minus left, pixels
+  std::string units = "m";  ///< unit of the baseline, and so of depth and of X, Y, Z
+
+  /// Throws std::invalid_argument naming the field when focal or baseline is not a positive finite
+  /// number, or cx, cy or doffs is not finite.
+  void validate() const;
+  /// The geometry of the same cameras with images scaled by `factor` (focal, cx, cy and doffs
+  /// scale; the baseline does not). Pixel centres stay at integer coordinates:
+  /// c' = (c + 0.5) * factor - 0.5.
+  StereoGeometry scaled(double factor) const;
+  /// Depth of a disparity, in `units`: focal * baseline / (d + doffs); +inf when d + doffs <= 0.
+  double depth(double disparity) const;
+};
+
+/// What a depth map holds where no depth is known: NaN (as the float disparity map).
+inline constexpr float kNoDepth = std::numeric_limits<float>::quiet_NaN();
+
+/// Depth of every pixel of a Q4 disparity map (16 x d, `invalid_q4` where invalid), in the units of
+/// the baseline. kNoDepth where the disparity is invalid, where d + doffs <= 0 (a point at infinity
+/// or behind the camera) and where the depth exceeds `max_depth`. `depth` must have the map's size;
+/// std::invalid_argument otherwise. Allocates nothing.
+void depth_from_disparity(MapView<const std::int16_t> q4, std::int16_t invalid_q4, const StereoGeometry& geometry,
+                          MapView<float> depth, double max_depth = std::numeric_limits<double>::infinity());
+
+/// The same from a float disparity map in pixels (NaN or +/-inf where invalid).
+void depth_from_disparity(MapView<const float> disparity, const StereoGeometry& geometry, MapView<float> depth,
+                          double max_depth = std::numeric_limits<double>::infinity());
+
+/// Relative depth 1 / d, for a pair without calibration (the thesis's eq. 4.3.4): proportional to
+/// the true depth when doffs = 0. kNoDepth where the disparity is invalid or d <= 0.
+void relative_depth_from_disparity(MapView<const std::int16_t> q4, std::int16_t invalid_q4, MapView<float> depth);
+
+/// A point cloud: one entry per valid pixel, in row-major pixel order.
+struct PointCloud {
+  std::vector<float> xyz;           ///< X, Y, Z of each point, in `units`
+  std::vector<std::uint8_t> rgb;    ///< R, G, B of each point; empty for a cloud without colours
+  std::vector<std::int32_t> pixel;  ///< y * width + x of the left pixel each point comes from
+  std::string units = "m";
+
+  std::size_t size() const { return pixel.size(); }
+  bool has_colours() const { return !rgb.empty(); }
+  /// Keeps the storage: a cloud reused frame after frame allocates only while it grows.
+  void clear();
+};
+
+/// Back-projects every valid pixel of a Q4 disparity map that has a depth (as depth_from_disparity,
+/// with `max_depth`) into `cloud`, replacing what it held. `colours` is the left image the map was
+/// computed from (Gray8, Rgb8 or Bgr8, the map's size), or a view with null data for a cloud without
+/// colours. std::invalid_argument when sizes differ or the geometry is invalid.
+void point_cloud_from_disparity(MapView<const std::int16_t> q4, std::int16_t invalid_q4,
+                                const StereoGeometry& geometry, const ImageView& colours, PointCloud& cloud,
+                                double max_depth = std::numeric_limits<double>::infinity());
+
+/// Writes `cloud` as binary little-endian PLY: "element vertex N" with float x y z and, when the
+/// cloud has colours, uchar red green blue; each of `comments` becomes a "comment" line (newlines
+/// are replaced by spaces). Throws std::runtime_error when the stream fails.
+void write_ply(std::ostream& out, const PointCloud& cloud, const std::vector<std::string>& comments = {});
+
+/// Writes `cloud` as Wavefront OBJ, one "v x y z" line per point ("v x y z r g b" with colours in
+/// [0, 1] when the cloud has them), `comments` as "#" lines. Throws std::runtime_error on failure.
+void write_obj(std::ostream& out, const PointCloud& cloud, const std::vector<std::string>& comments = {});
+
+}  // namespace mctstereo
