@@ -237,8 +237,7 @@ void check_preview_path(const std::string& path) {
     throw UsageError("--color " + in_quotes(path) + ": cannot write an image with this extension (use .png)");
 }
 
-std::vector<std::uint8_t> encode_preview(MapView<const std::int16_t> q4, std::int16_t invalid_q4, int dmin,
-                                         int dmax, const std::string& path) {
+void render_preview(MapView<const std::int16_t> q4, std::int16_t invalid_q4, int dmin, int dmax, cv::Mat& colour) {
   const int w = q4.width, h = q4.height;
   cv::Mat level(h, w, CV_8UC1), invalid(h, w, CV_8UC1);
   const double lo = 16.0 * dmin, span = 16.0 * std::max(dmax - dmin, 1);
@@ -251,9 +250,14 @@ std::vector<std::uint8_t> encode_preview(MapView<const std::int16_t> q4, std::in
       dst[x] = static_cast<std::uint8_t>(std::clamp(std::lround(255.0 * (src[x] - lo) / span), 0L, 255L));
     }
   }
-  cv::Mat colour;
   cv::applyColorMap(level, colour, cv::COLORMAP_TURBO);
   colour.setTo(cv::Scalar::all(0), invalid);
+}
+
+std::vector<std::uint8_t> encode_preview(MapView<const std::int16_t> q4, std::int16_t invalid_q4, int dmin,
+                                         int dmax, const std::string& path) {
+  cv::Mat colour;
+  render_preview(q4, invalid_q4, dmin, dmax, colour);
   std::vector<std::uint8_t> bytes;
   if (!cv::imencode(fs::path(path).extension().string(), colour, bytes))
     throw RuntimeError("cannot encode the preview " + in_quotes(path));

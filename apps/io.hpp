@@ -53,7 +53,11 @@ std::vector<std::uint8_t> encode_disparity(MapView<const std::int16_t> q4, std::
 /// UsageError when OpenCV cannot write an image with the extension of `path`.
 void check_preview_path(const std::string& path);
 
-/// The bytes of a colour preview: the turbo colormap over the fixed range [dmin, dmax] (so maps of
+/// The colour preview as an 8-bit BGR image of the map's size: the turbo colormap over the fixed
+/// range [dmin, dmax], invalid pixels black. `colour` is reused while the size stays.
+void render_preview(MapView<const std::int16_t> q4, std::int16_t invalid_q4, int dmin, int dmax, cv::Mat& colour);
+
+/// The bytes of a colour preview (render_preview): the turbo colormap over the fixed range [dmin, dmax] (so maps of
 /// one range compare by colour), invalid pixels black. Encoded as the extension of `path` says.
 std::vector<std::uint8_t> encode_preview(MapView<const std::int16_t> q4, std::int16_t invalid_q4, int dmin,
                                          int dmax, const std::string& path);

@@ -1,4 +1,4 @@
-// mctstereo: the command line. Subcommands match, eval, bench and devices; every failure ends as one line
+// mctstereo: the command line. Subcommands match, stream, eval, bench and devices; every failure ends as one line
 // "mctstereo: error: ..." on stderr with exit status 2 (usage) or 1 (runtime).
 #include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
@@ -12,6 +12,7 @@
 #include "errors.hpp"
 #include "eval.hpp"
 #include "match.hpp"
+#include "stream.hpp"
 
 namespace {
 
@@ -33,6 +34,7 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.footer("Run 'mctstereo SUBCOMMAND --help' for the flags of a subcommand.\n");
   MatchCommand match(app);
+  StreamCommand stream(app);
   EvalCommand eval(app);
   BenchCommand bench(app);
   DevicesCommand devices(app);
@@ -40,8 +42,8 @@ int main(int argc, char** argv) {
   // CLI11 would call a misspelt subcommand a stray argument; name it instead.
   if (argc > 1 && argv[1][0] != '-') {
     const std::string_view name = argv[1];
-    if (name != "match" && name != "eval" && name != "bench" && name != "devices")
-      return fail(kExitUsage, std::string("unknown subcommand '") + argv[1] + "' (known: match, eval, bench, devices)");
+    if (name != "match" && name != "stream" && name != "eval" && name != "bench" && name != "devices")
+      return fail(kExitUsage, std::string("unknown subcommand '") + argv[1] + "' (known: match, stream, eval, bench, devices)");
   }
 
   try {
@@ -53,6 +55,7 @@ int main(int argc, char** argv) {
 
   try {
     if (match.selected()) match.run();
+    if (stream.selected()) stream.run();
     if (eval.selected()) eval.run();
     if (bench.selected()) bench.run();
     if (devices.selected()) devices.run();

@@ -1,0 +1,451 @@
+#include "frame_source.hpp"
+
+#include <opencv2/core/utils/logger.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include <algorithm>
+#include <cctype>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+#include "errors.hpp"
+#include "io.hpp"
+#include "output_files.hpp"
+
+namespace mctstereo::app {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Where the integer conversion of a pattern is: [begin, end) of "%05d"; npos when there is none.
+struct Conversion {
+  std::size_t begin = std::string::npos, end = std::string::npos;
+};
+
+Conversion find_conversion(const std::string& pattern, std::string_view flag) {
+  Conversion found;
+  int count = 0;
+  for (std::size_t i = 0; i < pattern.size(); ++i) {
+    if (pattern[i] != '%') continue;
+    if (i + 1 < pattern.size() && pattern[i + 1] == '%') {
+      ++i;
+      continue;
+    }
+    std::size_t j = i + 1;
+    while (j < pattern.size() && std::string_view("-+ 0#").find(pattern[j]) != std::string_view::npos) ++j;
+    while (j < pattern.size() && std::isdigit(static_cast<unsigned char>(pattern[j]))) ++j;
+    if (j >= pattern.size() || std::string_view("diu").find(pattern[j]) == std::string_view::npos)
+      throw UsageError(std::string(flag) + " " + in_quotes(pattern) + ": '" + pattern.substr(i, j + 1 - i) +
+                       "' is not an integer conversion (use one such as %05d for the frame number, %% for a %)");
+    found = {i, j + 1};
+    ++count;
+    i = j;
+  }
+  if (count != 1)
+    throw UsageError(std::string(flag) + " " + in_quotes(pattern) + " has " + std::to_string(count) +
+                     " integer conversions: it needs exactly one (such as %05d) for the frame number");
+  return found;
+}
+
+bool is_image_name(const fs::path& path) {
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  for (const char* known : {".png", ".jpg", ".jpeg", ".ppm", ".pgm", ".pbm", ".pnm", ".bmp", ".tif", ".tiff", ".webp"})
+    if (ext == known) return true;
+  return false;
+}
+
+// The image files of a folder, sorted by name; hidden files and other files are left out.
+std::vector<std::string> folder_images(const std::string& folder, std::string_view flag) {
+  std::vector<std::string> files;
+  std::error_code ec;
+  for (const fs::directory_entry& entry : fs::directory_iterator(folder, ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.empty() || name[0] == '.' || !is_image_name(entry.path())) continue;
+    std::error_code type_ec;
+    if (entry.is_regular_file(type_ec)) files.push_back(entry.path().string());
+  }
+  if (ec) throw RuntimeError("cannot list " + std::string(flag) + " folder " + in_quotes(folder) + ": " + ec.message());
+  if (files.empty())
+    throw RuntimeError(std::string(flag) + " folder " + in_quotes(folder) +
+                       " holds no images (.png, .jpg, .ppm, .pgm, .bmp, .tif, .webp)");
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+// The files of a printf pattern: numbered from 0 or, when there is no file 0, from 1 (as OpenCV),
+// up to the first number without a file.
+std::vector<std::string> pattern_images(const std::string& pattern, std::string_view flag) {
+  std::error_code ec;
+  int first = 0;
+  if (!fs::is_regular_file(frame_path(pattern, 0), ec)) first = 1;
+  if (!fs::is_regular_file(frame_path(pattern, 1), ec) && first == 1)
+    throw RuntimeError(std::string(flag) + " " + in_quotes(pattern) + ": no such files (neither " +
+                       in_quotes(frame_path(pattern, 0)) + " nor " + in_quotes(frame_path(pattern, 1)) + " exists)");
+  std::vector<std::string> files;
+  for (int index = first;; ++index) {
+    std::string path = frame_path(pattern, index);
+    if (!fs::is_regular_file(path, ec)) break;
+    files.push_back(std::move(path));
+  }
+  return files;
+}
+
+// An 8-bit gray or BGR frame, as the matcher and the preview take it.
+void to_gray_or_bgr(cv::Mat& image, const std::string& what) {
+  if (image.depth() != CV_8U)
+    throw RuntimeError(what + " has samples that are not 8-bit; only 8-bit frames are matched");
+  if (image.channels() == 4) cv::cvtColor(image, image, cv::COLOR_BGRA2BGR);
+  else if (image.channels() == 2) cv::extractChannel(image, image, 0);
+}
+
+// One stream of images. grab() moves to the next image (false at the end) and retrieve() decodes
+// it, so two cameras are triggered together before either image is decoded.
+class ImageStream {
+ public:
+  virtual ~ImageStream() = default;
+  virtual bool grab() = 0;
+  virtual void retrieve(cv::Mat& image) = 0;
+  /// The file or device of image `index`, for messages.
+  virtual std::string name(int index) const = 0;
+  /// Skips `count` images; false when the stream ends first.
+  virtual bool skip(int count) = 0;
+  /// "" when the stream ended as it may (a file); the error otherwise (a camera never ends).
+  virtual std::string end_error(int frames) const = 0;
+  virtual double fps() const { return 0.0; }
+  virtual int count() const { return -1; }
+  virtual std::vector<std::string> files() const = 0;
+  virtual bool is_camera() const { return false; }
+};
+
+class SequenceStream : public ImageStream {
+ public:
+  SequenceStream(std::vector<std::string> files, std::string role) : files_(std::move(files)), role_(std::move(role)) {}
+
+  bool grab() override {
+    ++next_;
+    return next_ <= static_cast<int>(files_.size());
+  }
+  void retrieve(cv::Mat& image) override {
+    const std::string& path = files_[next_ - 1];
+    read_input_image(path, role_).copyTo(image);  // copyTo keeps the buffer of `image` while the size stays
+  }
+  std::string name(int index) const override {
+    return index < static_cast<int>(files_.size()) ? in_quotes(files_[index]) : "(none)";
+  }
+  bool skip(int count) override {
+    next_ += count;
+    return next_ <= static_cast<int>(files_.size());
+  }
+  std::string end_error(int) const override { return ""; }
+  int count() const override { return static_cast<int>(files_.size()); }
+  std::vector<std::string> files() const override { return files_; }
+
+ private:
+  std::vector<std::string> files_;
+  std::string role_;
+  int next_ = 0;  // images grabbed so far
+};
+
+// While opening a capture OpenCV tries one backend after another and logs why each one declined;
+// the error that follows says it once.
+class OpenCvLogSilenced {
+ public:
+  OpenCvLogSilenced() : previous_(cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT)) {}
+  ~OpenCvLogSilenced() { cv::utils::logging::setLogLevel(previous_); }
+  OpenCvLogSilenced(const OpenCvLogSilenced&) = delete;
+  OpenCvLogSilenced& operator=(const OpenCvLogSilenced&) = delete;
+
+ private:
+  cv::utils::logging::LogLevel previous_;
+};
+
+class VideoStream : public ImageStream {
+ public:
+  // A video file.
+  VideoStream(const std::string& path, std::string_view flag) : path_(path) {
+    const OpenCvLogSilenced quiet;
+    capture_.open(path, cv::CAP_ANY);
+    if (!capture_.isOpened())
+      throw RuntimeError("cannot open " + std::string(flag) + " video " + in_quotes(path) +
+                         ": not a video that OpenCV can decode");
+  }
+  // A camera, by its OpenCV capture index.
+  VideoStream(int camera, std::string_view flag) : camera_(camera) {
+    const OpenCvLogSilenced quiet;
+    capture_.open(camera, cv::CAP_ANY);
+    if (!capture_.isOpened())
+      throw RuntimeError("cannot open camera " + std::to_string(camera) + " (" + std::string(flag) + ")");
+  }
+
+  bool grab() override { return capture_.grab(); }
+  void retrieve(cv::Mat& image) override {
+    if (!capture_.retrieve(image) || image.empty())
+      throw RuntimeError("cannot decode a frame of " + name(0));
+    to_gray_or_bgr(image, name(0));
+  }
+  std::string name(int) const override {
+    return camera_ >= 0 ? "camera " + std::to_string(camera_) : "video " + in_quotes(path_);
+  }
+  bool skip(int count) override {
+    for (int i = 0; i < count; ++i)
+      if (!capture_.grab()) return false;
+    return true;
+  }
+  std::string end_error(int frames) const override {
+    if (camera_ < 0) return "";
+    return "camera " + std::to_string(camera_) + " stopped delivering frames after " + std::to_string(frames) +
+           " frames";
+  }
+  double fps() const override {
+    const double fps = capture_.get(cv::CAP_PROP_FPS);
+    return fps > 0.0 && fps < 1000.0 ? fps : 0.0;
+  }
+  int count() const override {
+    if (camera_ >= 0) return -1;
+    const double frames = capture_.get(cv::CAP_PROP_FRAME_COUNT);
+    return frames > 0.0 ? static_cast<int>(frames) : -1;
+  }
+  std::vector<std::string> files() const override {
+    if (camera_ >= 0) return {};
+    return {path_};
+  }
+  bool is_camera() const override { return camera_ >= 0; }
+
+ private:
+  std::string path_;
+  int camera_ = -1;
+  cv::VideoCapture capture_;
+};
+
+enum class InputKind { Video, Folder, Pattern };
+
+std::string_view kind_name(InputKind kind) {
+  switch (kind) {
+    case InputKind::Video: return "a video";
+    case InputKind::Folder: return "a folder";
+    case InputKind::Pattern: return "a printf pattern";
+  }
+  return "?";
+}
+
+InputKind kind_of(const std::string& path, std::string_view flag) {
+  if (path.find('%') != std::string::npos) {
+    check_frame_pattern(path, flag);
+    return InputKind::Pattern;
+  }
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (!fs::exists(status))
+    throw RuntimeError("cannot open " + std::string(flag) + " " + in_quotes(path) + ": no such file or folder");
+  if (fs::is_directory(status)) return InputKind::Folder;
+  if (cv::haveImageReader(path))
+    throw UsageError(std::string(flag) + " " + in_quotes(path) +
+                     " is a single image: give a folder or a printf pattern ('left_%04d.png') of an image "
+                     "sequence, or use 'mctstereo match' for one pair");
+  return InputKind::Video;
+}
+
+std::unique_ptr<ImageStream> open_stream(const std::string& path, InputKind kind, std::string_view flag,
+                                         const std::string& role) {
+  switch (kind) {
+    case InputKind::Video: return std::make_unique<VideoStream>(path, flag);
+    case InputKind::Folder: return std::make_unique<SequenceStream>(folder_images(path, flag), role);
+    case InputKind::Pattern: return std::make_unique<SequenceStream>(pattern_images(path, flag), role);
+  }
+  return nullptr;
+}
+
+std::string size_text(const cv::Mat& m) { return std::to_string(m.cols) + "x" + std::to_string(m.rows); }
+
+// Two streams, one per view.
+class PairSource : public StereoSource {
+ public:
+  PairSource(std::unique_ptr<ImageStream> left, std::unique_ptr<ImageStream> right, std::string kind)
+      : left_(std::move(left)), right_(std::move(right)), kind_(std::move(kind)) {}
+
+  bool read(StereoFrame& frame) override {
+    const bool has_left = left_->grab();
+    const bool has_right = right_->grab();
+    if (!has_left || !has_right) {
+      for (const ImageStream* stream : {left_.get(), right_.get()}) {
+        const bool ended = stream == left_.get() ? !has_left : !has_right;
+        if (ended && !stream->end_error(position_).empty()) throw RuntimeError(stream->end_error(position_));
+      }
+      if (has_left != has_right)
+        std::cerr << "mctstereo: note: " << (has_left ? right_ : left_)->name(position_) << " ends after "
+                  << position_ << " frames, before " << (has_left ? left_ : right_)->name(position_)
+                  << ": stopping there\n";
+      return false;
+    }
+    left_->retrieve(frame.left);
+    right_->retrieve(frame.right);
+    if (frame.left.size() != frame.right.size())
+      throw RuntimeError("frame " + std::to_string(position_) + ": left view " + left_->name(position_) + " is " +
+                         size_text(frame.left) + " but right view " + right_->name(position_) + " is " +
+                         size_text(frame.right) + ": a rectified pair has one size");
+    ++position_;
+    return true;
+  }
+  std::string describe(int index) const override {
+    return left_->name(index) + " and " + right_->name(index);
+  }
+  double fps() const override { return left_->fps(); }
+  int frame_count() const override {
+    const int l = left_->count(), r = right_->count();
+    return l < 0 || r < 0 ? -1 : std::min(l, r);
+  }
+  std::vector<std::string> input_files() const override {
+    std::vector<std::string> files = left_->files();
+    for (std::string& f : right_->files()) files.push_back(std::move(f));
+    return files;
+  }
+  std::string kind() const override { return kind_; }
+  void skip(int start, std::string_view flag_names) {
+    if (start <= 0) return;
+    const bool left_ok = left_->skip(start), right_ok = right_->skip(start);
+    if (!left_ok || !right_ok)
+      throw RuntimeError("--start " + std::to_string(start) + " is past the end of " + std::string(flag_names));
+    position_ = start;
+  }
+
+ private:
+  std::unique_ptr<ImageStream> left_, right_;
+  std::string kind_;
+};
+
+// One stream whose frames hold the left view in their left half and the right view in the other.
+class SideBySideSource : public StereoSource {
+ public:
+  SideBySideSource(std::unique_ptr<ImageStream> stream, std::string kind)
+      : stream_(std::move(stream)), kind_(std::move(kind)) {}
+
+  bool read(StereoFrame& frame) override {
+    if (!stream_->grab()) {
+      const std::string error = stream_->end_error(position_);
+      if (!error.empty()) throw RuntimeError(error);
+      return false;
+    }
+    stream_->retrieve(frame.whole);
+    if (frame.whole.cols % 2 != 0)
+      throw RuntimeError("frame " + std::to_string(position_) + " of " + stream_->name(position_) + " is " +
+                         size_text(frame.whole) + ": a side-by-side frame needs an even width (two halves)");
+    const int half = frame.whole.cols / 2;
+    // Views of the two halves: no copy, and no buffer of their own to keep.
+    frame.left = frame.whole.colRange(0, half);
+    frame.right = frame.whole.colRange(half, 2 * half);
+    ++position_;
+    return true;
+  }
+  std::string describe(int index) const override { return stream_->name(index); }
+  double fps() const override { return stream_->fps(); }
+  int frame_count() const override { return stream_->count(); }
+  std::vector<std::string> input_files() const override { return stream_->files(); }
+  std::string kind() const override { return kind_; }
+  void skip(int start) {
+    if (start <= 0) return;
+    if (!stream_->skip(start))
+      throw RuntimeError("--start " + std::to_string(start) + " is past the end of " + stream_->name(0));
+    position_ = start;
+  }
+
+ private:
+  std::unique_ptr<ImageStream> stream_;
+  std::string kind_;
+};
+
+std::string sequence_kind(InputKind kind) { return kind == InputKind::Video ? "video" : "image sequence"; }
+
+}  // namespace
+
+void check_frame_pattern(const std::string& pattern, std::string_view flag) {
+  const Conversion conversion = find_conversion(pattern, flag);
+  const std::size_t slash = pattern.find_last_of('/');
+  if (slash != std::string::npos && slash > conversion.begin)
+    throw UsageError(std::string(flag) + " " + in_quotes(pattern) +
+                     ": the frame number must be in the file name, not in a folder name");
+}
+
+std::string frame_path(const std::string& pattern, int index) {
+  std::vector<char> buf(pattern.size() + 32);
+#if defined(__GNUC__)
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wformat-nonliteral"
+#endif
+  // check_frame_pattern made sure of one integer conversion and nothing else.
+  const int n = std::snprintf(buf.data(), buf.size(), pattern.c_str(), index);
+  if (n >= static_cast<int>(buf.size())) {
+    buf.resize(static_cast<std::size_t>(n) + 1);
+    std::snprintf(buf.data(), buf.size(), pattern.c_str(), index);
+  }
+#if defined(__GNUC__)
+#pragma GCC diagnostic pop
+#endif
+  return n < 0 ? pattern : std::string(buf.data());
+}
+
+std::unique_ptr<StereoSource> open_stereo_source(const StereoInputSpec& spec, int start) {
+  const bool files = !spec.left.empty() || !spec.right.empty();
+  const bool side_by_side = !spec.side_by_side.empty();
+  const bool cameras = spec.left_camera >= 0 || spec.right_camera >= 0;
+  const bool side_by_side_camera = spec.side_by_side_camera >= 0;
+  const int inputs = int{files} + int{side_by_side} + int{cameras} + int{side_by_side_camera};
+  if (inputs == 0)
+    throw UsageError("no input: give --left and --right, --side-by-side, --left-camera and --right-camera, or "
+                     "--side-by-side-camera");
+  if (inputs > 1)
+    throw UsageError("give one input: --left and --right, --side-by-side, --left-camera and --right-camera, or "
+                     "--side-by-side-camera, not several of them");
+  if ((cameras || side_by_side_camera) && start > 0)
+    throw UsageError("--start skips frames of files; a camera delivers what it sees now");
+
+  if (files) {
+    if (spec.left.empty() || spec.right.empty())
+      throw UsageError(std::string(spec.left.empty() ? "--right" : "--left") + " needs " +
+                       (spec.left.empty() ? "--left" : "--right") + " (or use --side-by-side for frames holding both views)");
+    const InputKind left_kind = kind_of(spec.left, "--left");
+    const InputKind right_kind = kind_of(spec.right, "--right");
+    const bool left_video = left_kind == InputKind::Video, right_video = right_kind == InputKind::Video;
+    if (left_video != right_video)
+      throw UsageError("--left " + in_quotes(spec.left) + " is " + std::string(kind_name(left_kind)) + " but --right " +
+                       in_quotes(spec.right) + " is " + std::string(kind_name(right_kind)) +
+                       ": give two videos or two image sequences");
+    auto left = open_stream(spec.left, left_kind, "--left", "left image");
+    auto right = open_stream(spec.right, right_kind, "--right", "right image");
+    if (!left_video && left->count() != right->count())
+      throw RuntimeError("--left " + in_quotes(spec.left) + " holds " + std::to_string(left->count()) +
+                         " images but --right " + in_quotes(spec.right) + " holds " + std::to_string(right->count()) +
+                         ": the two sequences need one image per frame");
+    auto source = std::make_unique<PairSource>(std::move(left), std::move(right),
+                                               "two " + sequence_kind(left_kind) + "s");
+    source->skip(start, "--left " + in_quotes(spec.left));
+    return source;
+  }
+  if (side_by_side) {
+    const InputKind kind = kind_of(spec.side_by_side, "--side-by-side");
+    auto source = std::make_unique<SideBySideSource>(
+        open_stream(spec.side_by_side, kind, "--side-by-side", "side-by-side image"),
+        "a side-by-side " + sequence_kind(kind));
+    source->skip(start);
+    return source;
+  }
+  if (cameras) {
+    if (spec.left_camera < 0 || spec.right_camera < 0)
+      throw UsageError(std::string(spec.left_camera < 0 ? "--right-camera" : "--left-camera") + " needs " +
+                       (spec.left_camera < 0 ? "--left-camera" : "--right-camera") +
+                       " (or use --side-by-side-camera for a camera delivering both views in one frame)");
+    if (spec.left_camera == spec.right_camera)
+      throw UsageError("--left-camera and --right-camera are both camera " + std::to_string(spec.left_camera));
+    auto left = std::make_unique<VideoStream>(spec.left_camera, "--left-camera");
+    auto right = std::make_unique<VideoStream>(spec.right_camera, "--right-camera");
+    return std::make_unique<PairSource>(std::move(left), std::move(right), "two cameras");
+  }
+  return std::make_unique<SideBySideSource>(
+      std::make_unique<VideoStream>(spec.side_by_side_camera, "--side-by-side-camera"), "a side-by-side camera");
+}
+
+}  // namespace mctstereo::app

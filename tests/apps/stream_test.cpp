@@ -1,0 +1,398 @@
+// `mctstereo stream` run as a user would, on a short synthetic sequence with exact disparities: a
+// textured background plane at disparity 8 and a textured square coming closer, its disparity
+// growing by 2 per frame. The right views are the textures shifted by exactly those disparities.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "cli_test_util.hpp"
+
+namespace {
+
+using mctstereo::test::kProgram;
+using mctstereo::test::read_text;
+using mctstereo::test::Result;
+using mctstereo::test::run_shell;
+using mctstereo::test::shell_quoted;
+
+namespace fs = std::filesystem;
+
+constexpr int kWidth = 160, kHeight = 120, kFrames = 6;
+constexpr int kBackground = 8;                       // disparity of the background plane
+constexpr int kSquareX = 84, kSquareY = 36, kSquareSize = 48;  // the square in the left view
+constexpr int kUsage = 2;
+constexpr int kRuntime = 1;
+
+// Integer shifts of one texture: every disparity comes out within one 1/16 pixel step of the truth
+// (subpixel refinement rounds a few to the next step).
+constexpr double kExact = 1.0 / 16.0;
+
+int square_disparity(int frame) { return 16 + 2 * frame; }
+
+// Seeded noise, blurred so that it keeps its texture at the coarser pyramid levels.
+cv::Mat texture(int width, int height, int seed) {
+  cv::Mat noise(height, width, CV_8UC1);
+  cv::RNG rng(static_cast<std::uint64_t>(seed));
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+  cv::Mat smooth;
+  cv::GaussianBlur(noise, smooth, cv::Size(0, 0), 1.0);
+  cv::normalize(smooth, smooth, 0, 255, cv::NORM_MINMAX);
+  return smooth;
+}
+
+struct Pair {
+  cv::Mat left, right;
+};
+
+// Frame `frame` of the scene. A left pixel (x, y) on the background shows background texture
+// column x + kMargin, on the square square-texture column x - kSquareX; a right pixel x' shows
+// what the left pixel x' + d shows, with the square in front.
+Pair scene(int frame, int width = kWidth, int height = kHeight) {
+  static const cv::Mat background = texture(kWidth + 64, kHeight, 1);
+  static const cv::Mat square = texture(kSquareSize, kSquareSize, 2);
+  const int d = square_disparity(frame);
+  Pair pair{cv::Mat(height, width, CV_8UC1), cv::Mat(height, width, CV_8UC1)};
+  for (int y = 0; y < height; ++y)
+    for (int x = 0; x < width; ++x) {
+      const bool in_rows = y >= kSquareY && y < kSquareY + kSquareSize;
+      const auto on_square = [&](int left_x) { return in_rows && left_x >= kSquareX && left_x < kSquareX + kSquareSize; };
+      const auto bg = [&](int left_x) { return background.at<std::uint8_t>(y % kHeight, (left_x + 32) % background.cols); };
+      pair.left.at<std::uint8_t>(y, x) =
+          on_square(x) ? square.at<std::uint8_t>(y - kSquareY, x - kSquareX) : bg(x);
+      pair.right.at<std::uint8_t>(y, x) =
+          on_square(x + d) ? square.at<std::uint8_t>(y - kSquareY, x + d - kSquareX) : bg(x + kBackground);
+    }
+  return pair;
+}
+
+std::string numbered(const std::string& pattern, int index) {
+  char buf[256];
+  std::snprintf(buf, sizeof buf, pattern.c_str(), index);
+  return buf;
+}
+
+// Every name in a folder, hidden ones included (a temporary left behind would be hidden).
+std::set<std::string> folder_listing(const fs::path& folder) {
+  std::set<std::string> names;
+  for (const auto& entry : fs::directory_iterator(folder)) names.insert(entry.path().filename().string());
+  return names;
+}
+
+// Disparity maps read back from the files of stream, in pixels (NaN where invalid).
+cv::Mat read_kitti(const fs::path& path) {
+  const cv::Mat png = cv::imread(path.string(), cv::IMREAD_UNCHANGED);
+  if (png.empty() || png.type() != CV_16UC1) return {};
+  cv::Mat d(png.size(), CV_32FC1);
+  for (int y = 0; y < png.rows; ++y)
+    for (int x = 0; x < png.cols; ++x) {
+      const int v = png.at<std::uint16_t>(y, x);
+      d.at<float>(y, x) = v == 0 ? std::numeric_limits<float>::quiet_NaN() : v / 256.0f;
+    }
+  return d;
+}
+
+cv::Mat read_pfm(const fs::path& path) {
+  const cv::Mat pfm = cv::imread(path.string(), cv::IMREAD_UNCHANGED);  // OpenCV flips the rows back
+  if (pfm.empty() || pfm.type() != CV_32FC1) return {};
+  cv::Mat d = pfm.clone();
+  for (float& v : cv::Mat_<float>(d))
+    if (std::isinf(v)) v = std::numeric_limits<float>::quiet_NaN();
+  return d;
+}
+
+// Fraction of the pixels of a region whose disparity is within `tolerance` of `expected`.
+double fraction_near(const cv::Mat& d, cv::Rect region, double expected, double tolerance) {
+  int near = 0;
+  for (int y = region.y; y < region.y + region.height; ++y)
+    for (int x = region.x; x < region.x + region.width; ++x)
+      near += std::abs(d.at<float>(y, x) - expected) <= tolerance ? 1 : 0;
+  return static_cast<double>(near) / region.area();
+}
+
+// The square's inside, away from its edges, and a band of background left of it, away from the
+// image border and from the background that the square hides in the right view (up to 18 pixels
+// left of the square).
+const cv::Rect kSquareInside(kSquareX + 6, kSquareY + 6, kSquareSize - 12, kSquareSize - 12);
+const cv::Rect kBackgroundBand(20, 8, 32, kHeight - 16);
+
+// Checks one frame's disparity map: the square and the background at their known disparities.
+void expect_frame(const cv::Mat& d, int frame, double tolerance, double required_fraction) {
+  ASSERT_EQ(d.size(), cv::Size(kWidth, kHeight)) << "frame " << frame;
+  EXPECT_GE(fraction_near(d, kSquareInside, square_disparity(frame), tolerance), required_fraction)
+      << "frame " << frame << ": square at " << square_disparity(frame);
+  EXPECT_GE(fraction_near(d, kBackgroundBand, kBackground, tolerance), required_fraction)
+      << "frame " << frame << ": background at " << kBackground;
+}
+
+// A number following `label` in a summary line; -1 when it is not there.
+double number_after(const std::string& text, const std::string& label) {
+  const std::size_t at = text.find(label);
+  if (at == std::string::npos) return -1.0;
+  return std::atof(text.c_str() + at + label.size());
+}
+
+class Stream : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    folder_ = fs::temp_directory_path() /
+              ("mctstereo_stream_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
+    fs::remove_all(folder_);
+    fs::create_directories(folder_ / "seq");
+    fs::create_directories(folder_ / "out");
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(folder_, ec);
+  }
+
+  // Writes the sequence as seq/left_%04d.png and seq/right_%04d.png, numbered from 0.
+  void write_sequence(int frames = kFrames) const {
+    for (int f = 0; f < frames; ++f) {
+      const Pair p = scene(f);
+      ASSERT_TRUE(cv::imwrite((folder_ / numbered("seq/left_%04d.png", f)).string(), p.left));
+      ASSERT_TRUE(cv::imwrite((folder_ / numbered("seq/right_%04d.png", f)).string(), p.right));
+    }
+  }
+
+  // Writes the sequence as one video of side-by-side frames; false when OpenCV cannot.
+  bool write_side_by_side_video(const std::string& name, int fourcc) const {
+    cv::VideoWriter video((folder_ / name).string(), cv::CAP_FFMPEG, fourcc, 10.0, cv::Size(2 * kWidth, kHeight), true);
+    if (!video.isOpened()) return false;
+    for (int f = 0; f < kFrames; ++f) {
+      const Pair p = scene(f);
+      cv::Mat both, colour;
+      cv::hconcat(p.left, p.right, both);
+      cv::cvtColor(both, colour, cv::COLOR_GRAY2BGR);
+      video.write(colour);
+    }
+    return true;
+  }
+
+  Result run(const std::string& args) const {
+    return run_shell("cd " + shell_quoted(folder_.string()) + " && " + shell_quoted(kProgram.string()) +
+                     " stream " + args + " 2>&1");
+  }
+
+  // A failure with `status` and a one-line message containing `message`.
+  void expect_failure(const std::string& args, int status, const std::string& message) const {
+    const Result r = run(args);
+    EXPECT_EQ(r.status, status) << "stream " << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(message), std::string::npos)
+        << "stream " << args << "\nexpected the message to contain: " << message << "\ngot: " << r.output;
+    EXPECT_EQ(r.output.rfind("mctstereo: error: ", 0), 0u) << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << "one line expected:\n" << r.output;
+  }
+
+  fs::path folder_;
+};
+
+// One matching thread: the capture and writing threads of stream share the few cores of a test machine.
+const std::string kMatching = "--num-disparities 32 --threads 1 ";
+const std::string kSequence = "--left 'seq/left_%04d.png' --right 'seq/right_%04d.png' " + kMatching;
+
+TEST_F(Stream, ImageSequencesGiveTheKnownDisparitiesFrameByFrame) {
+  write_sequence();
+  const Result r = run(kSequence + "--disparity 'out/disp_%05d.png' --quiet");
+  ASSERT_EQ(r.status, 0) << r.output;
+  // One summary line: frames, size, the input, latency, matching time, frame rate, how it ended.
+  ASSERT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  for (const char* part : {"6 frames 160x120", "from two image sequences", "disparities 0..31", "backend cpu",
+                           "end of input", "wrote 6 disparity files 'out/disp_%05d.png' (16-bit PNG KITTI"})
+    EXPECT_NE(r.output.find(part), std::string::npos) << part << " missing in: " << r.output;
+  const std::regex summary(R"(latency ms: mean ([0-9.]+) p95 ([0-9.]+); matching ms: median ([0-9.]+); ([0-9.]+) fps)");
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(r.output, m, summary)) << r.output;
+  const double mean = std::stod(m[1]), p95 = std::stod(m[2]), matching = std::stod(m[3]), fps = std::stod(m[4]);
+  EXPECT_GT(mean, 0.0);
+  EXPECT_GT(p95, 0.0);
+  EXPECT_GT(matching, 0.0);
+  EXPECT_LE(matching, p95) << "a frame's latency includes its matching";
+  EXPECT_GT(fps, 0.0);
+
+  std::set<std::string> expected_files;
+  for (int f = 0; f < kFrames; ++f) {
+    expected_files.insert(numbered("disp_%05d.png", f));
+    expect_frame(read_kitti(folder_ / "out" / numbered("disp_%05d.png", f)), f, kExact, 1.0);
+  }
+  EXPECT_EQ(folder_listing(folder_ / "out"), expected_files);
+}
+
+TEST_F(Stream, FoldersWithStartAndMaxFramesKeepTheFrameNumbers) {
+  write_sequence();
+  fs::create_directories(folder_ / "l");
+  fs::create_directories(folder_ / "r");
+  for (int f = 0; f < kFrames; ++f) {
+    fs::rename(folder_ / numbered("seq/left_%04d.png", f), folder_ / "l" / numbered("a%02d.png", f));
+    fs::rename(folder_ / numbered("seq/right_%04d.png", f), folder_ / "r" / numbered("b%02d.png", f));
+  }
+  std::ofstream(folder_ / "l" / "notes.txt") << "not an image";  // left out of the sequence
+  const Result r = run("--left l --right r " + kMatching + "--start 2 --max-frames 3 --disparity 'out/d%d.pfm'");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("3 frames 160x120 from two image sequences"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("--max-frames 3"), std::string::npos) << r.output;
+  EXPECT_EQ(folder_listing(folder_ / "out"), (std::set<std::string>{"d2.pfm", "d3.pfm", "d4.pfm"}));
+  for (int f = 2; f <= 4; ++f) expect_frame(read_pfm(folder_ / "out" / numbered("d%d.pfm", f)), f, kExact, 1.0);
+}
+
+TEST_F(Stream, LosslessSideBySideVideoAndPreviewVideo) {
+  if (!write_side_by_side_video("both.avi", cv::VideoWriter::fourcc('F', 'F', 'V', '1')))
+    GTEST_SKIP() << "OpenCV cannot write FFV1 video here";
+  const Result r = run("--side-by-side both.avi " + kMatching + "--disparity 'out/%03d.png' --format q4 "
+                       "--preview-video out/preview.avi");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("6 frames 160x120 from a side-by-side video"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("preview video 'out/preview.avi'"), std::string::npos) << r.output;
+  for (int f = 0; f < kFrames; ++f) {
+    const cv::Mat q4 = cv::imread((folder_ / "out" / numbered("%03d.png", f)).string(), cv::IMREAD_UNCHANGED);
+    ASSERT_EQ(q4.type(), CV_16UC1);
+    cv::Mat d;
+    q4.convertTo(d, CV_32F, 1.0 / 16.0, -1.0);  // Q4 with min 0: d = value / 16 - 1
+    expect_frame(d, f, kExact, 1.0);
+  }
+  // The preview: left frame | colour disparity, one frame per frame matched.
+  cv::VideoCapture preview((folder_ / "out/preview.avi").string());
+  ASSERT_TRUE(preview.isOpened());
+  int frames = 0;
+  cv::Mat frame;
+  while (preview.read(frame)) {
+    ++frames;
+    ASSERT_EQ(frame.size(), cv::Size(2 * kWidth, kHeight));
+    // The square is nearer than the background: a different colour (turbo: warmer) in the right half.
+    const cv::Vec3b square = frame.at<cv::Vec3b>(kSquareY + kSquareSize / 2, kWidth + kSquareX + kSquareSize / 2);
+    const cv::Vec3b background = frame.at<cv::Vec3b>(kHeight / 2, kWidth + 20);
+    EXPECT_GT(cv::norm(cv::Vec3d(square) - cv::Vec3d(background)), 60.0) << "frame " << frames - 1;
+  }
+  EXPECT_EQ(frames, kFrames);
+}
+
+TEST_F(Stream, LossySideBySideVideoComesClose) {
+  if (!write_side_by_side_video("both.avi", cv::VideoWriter::fourcc('M', 'J', 'P', 'G')))
+    GTEST_SKIP() << "OpenCV cannot write MJPG video here";
+  const Result r = run("--side-by-side both.avi " + kMatching + "--disparity 'out/%d.pfm'");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("6 frames 160x120"), std::string::npos) << r.output;
+  for (int f = 0; f < kFrames; ++f) expect_frame(read_pfm(folder_ / "out" / numbered("%d.pfm", f)), f, 1.0, 0.9);
+}
+
+TEST_F(Stream, FrameChangingSizeStopsWithTheEarlierFramesWritten) {
+  write_sequence();
+  const Pair small = scene(3, 80, 60);
+  ASSERT_TRUE(cv::imwrite((folder_ / "seq/left_0003.png").string(), small.left));
+  ASSERT_TRUE(cv::imwrite((folder_ / "seq/right_0003.png").string(), small.right));
+  expect_failure(kSequence + "--disparity 'out/disp_%05d.png' --preview-video out/p.avi", kRuntime,
+                 "frame 3 ('seq/left_0003.png' and 'seq/right_0003.png') is 80x60 but the stream began at 160x120");
+  // The frames before are written whole, no temporary is left, and the preview video is readable.
+  EXPECT_EQ(folder_listing(folder_ / "out"),
+            (std::set<std::string>{"disp_00000.png", "disp_00001.png", "disp_00002.png", "p.avi"}));
+  for (int f = 0; f < 3; ++f) expect_frame(read_kitti(folder_ / "out" / numbered("disp_%05d.png", f)), f, kExact, 1.0);
+  cv::VideoCapture preview((folder_ / "out/p.avi").string());
+  ASSERT_TRUE(preview.isOpened());
+  int frames = 0;
+  for (cv::Mat frame; preview.read(frame);) ++frames;
+  EXPECT_EQ(frames, 3);
+}
+
+TEST_F(Stream, BadInputsAreNamed) {
+  write_sequence();
+  std::ofstream(folder_ / "junk.avi") << "not a video at all";
+  expect_failure("--side-by-side junk.avi", kRuntime, "cannot open --side-by-side video 'junk.avi'");
+  expect_failure("--left missing.avi --right junk.avi", kRuntime, "--left 'missing.avi': no such file or folder");
+  expect_failure("--left junk.avi --right seq", kUsage, "is a video but --right 'seq' is a folder");
+  expect_failure("--left seq/left_0000.png --right seq/right_0000.png", kUsage, "is a single image");
+  expect_failure("--left 'seq/left_%04d.png'", kUsage, "--left needs --right");
+  expect_failure("--left 'seq/left_%04d.png' --right 'seq/right_%04d.png' --left-camera 0", kUsage, "give one input");
+  expect_failure("", kUsage, "no input");
+  expect_failure("--left 'seq/left_%04d_%d.png' --right 'seq/right_%04d.png'", kUsage, "exactly one");
+  expect_failure("--left 'seq/x_%04d.png' --right 'seq/right_%04d.png'", kRuntime, "no such files");
+  expect_failure(kSequence + "--start 6", kRuntime, "--start 6");
+  expect_failure("--left-camera 0 --right-camera 1 --start 1", kUsage, "--start");
+
+  // Folders of different lengths.
+  fs::create_directories(folder_ / "l");
+  fs::create_directories(folder_ / "r");
+  for (int f = 0; f < kFrames; ++f) {
+    fs::copy_file(folder_ / numbered("seq/left_%04d.png", f), folder_ / "l" / numbered("%d.png", f));
+    if (f < kFrames - 1) fs::copy_file(folder_ / numbered("seq/right_%04d.png", f), folder_ / "r" / numbered("%d.png", f));
+  }
+  expect_failure("--left l --right r", kRuntime, "--left 'l' holds 6 images but --right 'r' holds 5");
+}
+
+TEST_F(Stream, BadOutputsAreRefusedBeforeAnyWork) {
+  write_sequence();
+  const std::set<std::string> inputs = folder_listing(folder_ / "seq");
+  const std::string before = read_text(folder_ / "seq/left_0002.png");
+  expect_failure(kSequence + "--disparity out/disp.png", kUsage, "has 0 integer conversions");
+  expect_failure(kSequence + "--disparity 'out/disp_%s.png'", kUsage, "'%s' is not an integer conversion");
+  expect_failure(kSequence + "--disparity 'out/%d_%d.png'", kUsage, "has 2 integer conversions");
+  expect_failure(kSequence + "--disparity 'out_%d/disp.png'", kUsage, "must be in the file name");
+  expect_failure(kSequence + "--disparity 'nowhere/disp_%d.png'", kRuntime, "folder 'nowhere' does not exist");
+  expect_failure(kSequence + "--disparity 'out/disp_%d.jpg'", kUsage, "cannot tell the disparity format");
+  // An output named like the inputs: refused, and no input touched.
+  expect_failure(kSequence + "--disparity 'seq/left_%04d.png'", kUsage, "refusing to overwrite an input");
+  expect_failure(kSequence + "--disparity './seq/../seq/right_%04d.png' --start 2", kUsage,
+                 "'./seq/../seq/right_0002.png' is the input 'seq/right_0002.png': refusing to overwrite an input");
+  expect_failure(kSequence + "--preview-video out/p.gif", kUsage, "name it .avi");
+  expect_failure(kSequence + "--format q4", kUsage, "--format q4 applies to --disparity files");
+  EXPECT_EQ(folder_listing(folder_ / "seq"), inputs);
+  EXPECT_EQ(read_text(folder_ / "seq/left_0002.png"), before);
+  EXPECT_TRUE(fs::is_empty(folder_ / "out"));
+}
+
+TEST_F(Stream, CamerasThatDoNotOpenAreNamed) {
+  expect_failure("--left-camera 60 --right-camera 61", kRuntime, "cannot open camera 60 (--left-camera)");
+  expect_failure("--left-camera 3 --right-camera 3", kUsage, "both camera 3");
+}
+
+TEST_F(Stream, ShowWithoutADisplayFallsBackToProgress) {
+  write_sequence(2);
+  const Result r = run_shell("cd " + shell_quoted(folder_.string()) + " && env -u DISPLAY -u WAYLAND_DISPLAY " +
+                             shell_quoted(kProgram.string()) + " stream " + kSequence + "--show 2>&1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_EQ(r.output.rfind("mctstereo: note: --show: there is no display", 0), 0u) << r.output;
+  EXPECT_NE(r.output.find("2 frames 160x120"), std::string::npos) << r.output;
+}
+
+TEST_F(Stream, SigtermStopsCleanlyWithEveryWrittenFileWhole) {
+  // A long sequence of links to the same six frames, stopped once a few frames are out.
+  write_sequence();
+  fs::create_directories(folder_ / "l");
+  fs::create_directories(folder_ / "r");
+  constexpr int kLong = 1000;
+  for (int f = 0; f < kLong; ++f) {
+    fs::create_symlink(fs::absolute(folder_ / numbered("seq/left_%04d.png", f % kFrames)), folder_ / "l" / numbered("%05d.png", f));
+    fs::create_symlink(fs::absolute(folder_ / numbered("seq/right_%04d.png", f % kFrames)), folder_ / "r" / numbered("%05d.png", f));
+  }
+  const std::string command = "cd " + shell_quoted(folder_.string()) + " && { " + shell_quoted(kProgram.string()) +
+                              " stream --left l --right r " + kMatching + "--disparity 'out/%05d.png' --quiet "
+                              "> summary.txt 2>&1 & pid=$!; while [ ! -e out/00003.png ] && kill -0 $pid 2>/dev/null; do sleep 0.02; done; "
+                              "kill -TERM $pid; wait $pid; echo $?; }";
+  const Result r = run_shell(command);
+  const std::string summary = read_text(folder_ / "summary.txt");
+  EXPECT_EQ(r.output, "0\n") << summary;
+  EXPECT_NE(summary.find("stopped by SIGTERM"), std::string::npos) << summary;
+  const int frames = static_cast<int>(number_after(summary, ""));
+  EXPECT_GE(frames, 4) << summary;
+  EXPECT_LT(frames, kLong) << summary;
+  // Frames 0 .. frames - 1, each whole, and nothing else.
+  std::set<std::string> expected;
+  for (int f = 0; f < frames; ++f) expected.insert(numbered("%05d.png", f));
+  EXPECT_EQ(folder_listing(folder_ / "out"), expected);
+  for (int f = 0; f < std::min(frames, 12); ++f)
+    expect_frame(read_kitti(folder_ / "out" / numbered("%05d.png", f)), f % kFrames, kExact, 1.0);
+}
+
+}  // namespace
