@@ -249,11 +249,12 @@ class Progress {
     last_ = now;
     const std::string line = std::to_string(frames) + " frames, " + fixed(fps, 1) + " fps, latency " +
                              fixed(latency_ms, 1) + " ms";
+    // One write per line, so nothing else lands inside it.
     if (terminal_) {
-      std::cerr << "\r" << line << "\033[K" << std::flush;
+      std::cerr << ("\r" + line + "\033[K") << std::flush;
       shown_ = true;
     } else {
-      std::cerr << "mctstereo: " << line << "\n";
+      std::cerr << ("mctstereo: " + line + "\n") << std::flush;
     }
   }
   void finish() {
