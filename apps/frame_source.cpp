@@ -406,7 +406,8 @@ std::unique_ptr<StereoSource> open_stereo_source(const StereoInputSpec& spec, in
   if (files) {
     if (spec.left.empty() || spec.right.empty())
       throw UsageError(std::string(spec.left.empty() ? "--right" : "--left") + " needs " +
-                       (spec.left.empty() ? "--left" : "--right") + " (or use --side-by-side for frames holding both views)");
+                       (spec.left.empty() ? "--left" : "--right") +
+                       " (or use --side-by-side for frames holding both views)");
     const InputKind left_kind = kind_of(spec.left, "--left");
     const InputKind right_kind = kind_of(spec.right, "--right");
     const bool left_video = left_kind == InputKind::Video, right_video = right_kind == InputKind::Video;

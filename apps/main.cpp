@@ -43,7 +43,8 @@ int main(int argc, char** argv) {
   if (argc > 1 && argv[1][0] != '-') {
     const std::string_view name = argv[1];
     if (name != "match" && name != "stream" && name != "eval" && name != "bench" && name != "devices")
-      return fail(kExitUsage, std::string("unknown subcommand '") + argv[1] + "' (known: match, stream, eval, bench, devices)");
+      return fail(kExitUsage,
+                  std::string("unknown subcommand '") + argv[1] + "' (known: match, stream, eval, bench, devices)");
   }
 
   try {

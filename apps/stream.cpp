@@ -399,9 +399,9 @@ void StreamCommand::run() const {
     std::lock_guard lock(error_mutex);
     if (!error) error = e;
   };
-  std::atomic<bool> abort{false};         // an error downstream: stop reading and matching
-  std::atomic<bool> user_stop{false};     // the window was closed
-  std::string end_reason;                 // written by the capture thread before it closes to_match
+  std::atomic<bool> aborted{false};  // an error downstream: stop reading and matching
+  std::atomic<bool> user_stop{false};  // the window was closed, or q or Esc pressed
+  std::string end_reason;  // written by the capture thread before it closes to_match
   const int max_frames = max_frames_;
 
   auto capture = [&] {
@@ -422,7 +422,7 @@ void StreamCommand::run() const {
             end_reason = "stopped from the window";
             break;
           }
-          if (abort.load()) break;
+          if (aborted.load()) break;
           const std::optional<FrameSlot*> slot = free_slots.pop();
           if (!slot) break;
           const int index = source->position();
@@ -450,7 +450,7 @@ void StreamCommand::run() const {
   auto match = [&] {
     try {
       while (const std::optional<FrameSlot*> slot = to_match.pop()) {
-        if (abort.load()) break;
+        if (aborted.load()) break;
         matcher.compute(image_view((*slot)->frame.left), image_view((*slot)->frame.right));
         copy_map(matcher.disparity_q4(), (*slot)->disparity_q4);
         (*slot)->matching_ms = matcher.timings().back().ms;
@@ -458,7 +458,7 @@ void StreamCommand::run() const {
       }
     } catch (...) {
       fail(std::current_exception());
-      abort.store(true);
+      aborted.store(true);
       free_slots.close();
       to_match.close();
     }
@@ -483,7 +483,7 @@ void StreamCommand::run() const {
       }
     } joiner;
     joiner.close_all = [&] {
-      abort.store(true);
+      aborted.store(true);
       free_slots.close();
       to_match.close();
       to_write.close();

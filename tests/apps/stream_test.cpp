@@ -69,8 +69,10 @@ Pair scene(int frame, int width = kWidth, int height = kHeight) {
   for (int y = 0; y < height; ++y)
     for (int x = 0; x < width; ++x) {
       const bool in_rows = y >= kSquareY && y < kSquareY + kSquareSize;
-      const auto on_square = [&](int left_x) { return in_rows && left_x >= kSquareX && left_x < kSquareX + kSquareSize; };
-      const auto bg = [&](int left_x) { return background.at<std::uint8_t>(y % kHeight, (left_x + 32) % background.cols); };
+      const auto on_square = [&](int left_x) {
+        return in_rows && left_x >= kSquareX && left_x < kSquareX + kSquareSize;
+      };
+      const auto bg = [&](int left_x) { return background.at<std::uint8_t>(y, left_x + 32); };
       pair.left.at<std::uint8_t>(y, x) =
           on_square(x) ? square.at<std::uint8_t>(y - kSquareY, x - kSquareX) : bg(x);
       pair.right.at<std::uint8_t>(y, x) =
@@ -342,7 +344,8 @@ TEST_F(Stream, BadInputsAreNamed) {
   fs::create_directories(folder_ / "r");
   for (int f = 0; f < kFrames; ++f) {
     fs::copy_file(folder_ / numbered("seq/left_%04d.png", f), folder_ / "l" / numbered("%d.png", f));
-    if (f < kFrames - 1) fs::copy_file(folder_ / numbered("seq/right_%04d.png", f), folder_ / "r" / numbered("%d.png", f));
+    if (f < kFrames - 1)
+      fs::copy_file(folder_ / numbered("seq/right_%04d.png", f), folder_ / "r" / numbered("%d.png", f));
   }
   expect_failure("--left l --right r", kRuntime, "--left 'l' holds 6 images but --right 'r' holds 5");
 }
@@ -389,12 +392,14 @@ TEST_F(Stream, SigtermStopsCleanlyWithEveryWrittenFileWhole) {
   fs::create_directories(folder_ / "r");
   constexpr int kLong = 1000;
   for (int f = 0; f < kLong; ++f) {
-    fs::create_symlink(fs::absolute(folder_ / numbered("seq/left_%04d.png", f % kFrames)), folder_ / "l" / numbered("%05d.png", f));
-    fs::create_symlink(fs::absolute(folder_ / numbered("seq/right_%04d.png", f % kFrames)), folder_ / "r" / numbered("%05d.png", f));
+    const std::string name = numbered("%05d.png", f);
+    fs::create_symlink(fs::absolute(folder_ / numbered("seq/left_%04d.png", f % kFrames)), folder_ / "l" / name);
+    fs::create_symlink(fs::absolute(folder_ / numbered("seq/right_%04d.png", f % kFrames)), folder_ / "r" / name);
   }
   const std::string command = "cd " + shell_quoted(folder_.string()) + " && { " + shell_quoted(kProgram.string()) +
-                              " stream --left l --right r " + kMatching + "--disparity 'out/%05d.png' --quiet "
-                              "> summary.txt 2>&1 & pid=$!; while [ ! -e out/00003.png ] && kill -0 $pid 2>/dev/null; do sleep 0.02; done; "
+                              " stream --left l --right r " + kMatching +
+                              "--disparity 'out/%05d.png' --quiet > summary.txt 2>&1 & pid=$!; "
+                              "while [ ! -e out/00003.png ] && kill -0 $pid 2>/dev/null; do sleep 0.02; done; "
                               "kill -TERM $pid; wait $pid; echo $?; }";
   const Result r = run_shell(command);
   const std::string summary = read_text(folder_ / "summary.txt");
