@@ -4,6 +4,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
+#include <opencv2/videoio/registry.hpp>
 
 #include <algorithm>
 #include <cctype>
@@ -164,12 +165,30 @@ class OpenCvLogSilenced {
   cv::utils::logging::LogLevel previous_;
 };
 
+// The capture backends tried, in order, of those this OpenCV has. Left to itself (CAP_ANY) OpenCV
+// also tries every camera plugin it has, even for a file, and some of them leak what they
+// allocated when they decline.
+std::vector<cv::VideoCaptureAPIs> capture_backends(bool camera) {
+  std::vector<cv::VideoCaptureAPIs> preferred = {cv::CAP_FFMPEG, cv::CAP_GSTREAMER};
+#if defined(__linux__)
+  if (camera) preferred = {cv::CAP_V4L2, cv::CAP_GSTREAMER};
+#else
+  if (camera) preferred.clear();
+#endif
+  std::vector<cv::VideoCaptureAPIs> available;
+  for (const cv::VideoCaptureAPIs api : preferred)
+    if (cv::videoio_registry::hasBackend(api)) available.push_back(api);
+  if (available.empty()) available.push_back(cv::CAP_ANY);
+  return available;
+}
+
 class VideoStream : public ImageStream {
  public:
   // A video file.
   VideoStream(const std::string& path, std::string_view flag) : path_(path) {
     const OpenCvLogSilenced quiet;
-    capture_.open(path, cv::CAP_ANY);
+    for (const cv::VideoCaptureAPIs api : capture_backends(false))
+      if (capture_.open(path, api)) break;
     if (!capture_.isOpened())
       throw RuntimeError("cannot open " + std::string(flag) + " video " + in_quotes(path) +
                          ": not a video that OpenCV can decode");
@@ -177,7 +196,8 @@ class VideoStream : public ImageStream {
   // A camera, by its OpenCV capture index.
   VideoStream(int camera, std::string_view flag) : camera_(camera) {
     const OpenCvLogSilenced quiet;
-    capture_.open(camera, cv::CAP_ANY);
+    for (const cv::VideoCaptureAPIs api : capture_backends(true))
+      if (capture_.open(camera, api)) break;
     if (!capture_.isOpened())
       throw RuntimeError("cannot open camera " + std::to_string(camera) + " (" + std::string(flag) + ")");
   }

@@ -350,12 +350,14 @@ void StreamCommand::run() const {
   const std::unique_ptr<StereoSource> source = open_stereo_source(input_, start_);
 
   // No output may replace an input: every frame's name is checked now when the length is known,
-  // and again as each frame is written.
+  // and again as each frame is written. A per-frame file is renamed into place, which replaces a
+  // name and leaves a file of other names (a hard link) as it was, so comparing canonical names
+  // suffices; the preview video is written in place and so is compared by file.
   const std::vector<std::string> inputs = source->input_files();
   const InputNames input_names(inputs);
   const int first_index = source->position();
   if (!disparity_.empty()) {
-    check_output_path(frame_path(disparity_, first_index), inputs, "disparity output");
+    check_output_path(frame_path(disparity_, first_index), {}, "disparity output");
     const int count = source->frame_count();
     const int last = max_frames_ > 0 && (count < 0 || first_index + max_frames_ < count) ? first_index + max_frames_
                                                                                           : count;

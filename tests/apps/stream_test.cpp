@@ -363,7 +363,7 @@ TEST_F(Stream, BadOutputsAreRefusedBeforeAnyWork) {
   // An output named like the inputs: refused, and no input touched.
   expect_failure(kSequence + "--disparity 'seq/left_%04d.png'", kUsage, "refusing to overwrite an input");
   expect_failure(kSequence + "--disparity './seq/../seq/right_%04d.png' --start 2", kUsage,
-                 "'./seq/../seq/right_0002.png' is the input 'seq/right_0002.png': refusing to overwrite an input");
+                 "--disparity './seq/../seq/right_%04d.png' would write './seq/../seq/right_0002.png', an input");
   expect_failure(kSequence + "--preview-video out/p.gif", kUsage, "name it .avi");
   expect_failure(kSequence + "--format q4", kUsage, "--format q4 applies to --disparity files");
   EXPECT_EQ(folder_listing(folder_ / "seq"), inputs);
@@ -390,7 +390,7 @@ TEST_F(Stream, SigtermStopsCleanlyWithEveryWrittenFileWhole) {
   write_sequence();
   fs::create_directories(folder_ / "l");
   fs::create_directories(folder_ / "r");
-  constexpr int kLong = 1000;
+  constexpr int kLong = 500;
   for (int f = 0; f < kLong; ++f) {
     const std::string name = numbered("%05d.png", f);
     fs::create_symlink(fs::absolute(folder_ / numbered("seq/left_%04d.png", f % kFrames)), folder_ / "l" / name);
