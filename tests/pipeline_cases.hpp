@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <ostream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -52,10 +53,35 @@ inline std::string describe_difference(const std::vector<std::int16_t>& a, const
   return {};
 }
 
+/// What a matcher of `backend` refuses with std::invalid_argument: views of another size, a
+/// null view, a stride shorter than a row, and a range the parameters do not allow.
+inline void expect_rejects_wrong_input(Backend backend, const MatcherOptions& options = {}) {
+  StereoParams p = preset("realtime");
+  p.num_disparities = 16;
+  Matcher m(64, 32, p, backend, options);
+  std::vector<std::uint8_t> px(64 * 32);
+  const ImageView good{px.data(), 64, 32, 64, PixelFormat::Gray8};
+  EXPECT_THROW(m.compute({px.data(), 63, 32, 64, PixelFormat::Gray8}, good), std::invalid_argument);
+  EXPECT_THROW(m.compute(good, {nullptr, 64, 32, 64, PixelFormat::Gray8}), std::invalid_argument);
+  EXPECT_THROW(m.compute(good, {px.data(), 64, 32, 32, PixelFormat::Gray8}), std::invalid_argument);
+  StereoParams bad = p;
+  bad.num_disparities = 0;
+  EXPECT_THROW(Matcher(64, 32, bad, backend, options), std::invalid_argument);
+  bad = p;
+  bad.num_disparities = 65;
+  EXPECT_THROW(Matcher(64, 32, bad, backend, options), std::invalid_argument);
+}
+
 struct PipelineCase {
-  std::string name;  // an identifier: it names a test
+  std::string name;
   StereoParams params;
   int w, h;
+  /// The name as an identifier, for test names.
+  std::string id() const {
+    std::string id = name;
+    std::replace(id.begin(), id.end(), '-', '_');
+    return id;
+  }
   /// The largest disparity of the case's pair: within the range, and at most half the width.
   int max_disparity() const { return params.max_disparity() > 0 ? std::min(params.max_disparity(), w / 2) : 0; }
 };
@@ -69,9 +95,7 @@ inline std::vector<PipelineCase> pipeline_cases() {
   for (const std::string& name : preset_names()) {
     StereoParams p = preset(name);
     p.num_disparities = 24;
-    std::string id = name;
-    std::replace(id.begin(), id.end(), '-', '_');
-    out.push_back({id, p, 97, 61});
+    out.push_back({name, p, 97, 61});
   }
   StereoParams neg = preset("balanced");
   neg.min_disparity = -7;

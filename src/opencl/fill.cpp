@@ -5,7 +5,8 @@ namespace mctstereo::detail::opencl {
 
 FillInvalid::FillInvalid(Runtime& rt, FillMode mode) : StageKernel(rt), mode_(mode) {
   if (mode != FillMode::None)
-    kernel_ = rt.kernel("fill", "fill_invalid", mode == FillMode::NearestLower ? "-DNEAREST_LOWER=1" : "-DNEAREST_LOWER=0");
+    kernel_ =
+        rt.kernel("fill", "fill_invalid", mode == FillMode::NearestLower ? "-DNEAREST_LOWER=1" : "-DNEAREST_LOWER=0");
 }
 
 void FillInvalid::run(DevicePlane<std::int16_t>& disparity) {

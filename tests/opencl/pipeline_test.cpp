@@ -55,7 +55,7 @@ TEST_P(OpenclPipelineCase, EqualsCpuBitForBit) {
 
 // One test each: a case builds its own kernels (on PoCL, a fraction of a second per program).
 INSTANTIATE_TEST_SUITE_P(PresetsAndAwkwardCases, OpenclPipelineCase, ::testing::ValuesIn(pipeline_cases()),
-                         [](const ::testing::TestParamInfo<PipelineCase>& info) { return info.param.name; });
+                         [](const ::testing::TestParamInfo<PipelineCase>& info) { return info.param.id(); });
 
 // Colour views whose channels differ (so the conversion weights matter), in rows longer than the
 // pixels, as RGB on the left and BGR on the right.
@@ -260,19 +260,9 @@ TEST(OpenclPipeline, ImageTooLargeForTheDeviceIsAClearError) {
 
 TEST(OpenclPipeline, RejectsWrongInputAsCpu) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
-  StereoParams p = preset("realtime");
-  p.num_disparities = 16;
   MatcherOptions options;
   options.device = device_of(*rt);
-  Matcher m(64, 32, p, Backend::OpenCL, options);
-  std::vector<std::uint8_t> px(64 * 32);
-  const ImageView good{px.data(), 64, 32, 64, PixelFormat::Gray8};
-  EXPECT_THROW(m.compute({px.data(), 63, 32, 64, PixelFormat::Gray8}, good), std::invalid_argument);
-  EXPECT_THROW(m.compute(good, {nullptr, 64, 32, 64, PixelFormat::Gray8}), std::invalid_argument);
-  EXPECT_THROW(m.compute(good, {px.data(), 64, 32, 32, PixelFormat::Gray8}), std::invalid_argument);
-  StereoParams bad = p;
-  bad.num_disparities = 65;
-  EXPECT_THROW(Matcher(64, 32, bad, Backend::OpenCL, options), std::invalid_argument);
+  expect_rejects_wrong_input(Backend::OpenCL, options);
 }
 
 }  // namespace
