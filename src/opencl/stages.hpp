@@ -38,7 +38,8 @@ struct DeviceImage {
 /// A `__global` pointer argument given no buffer: the kernel is told not to touch it.
 struct NoBuffer {};
 
-/// What every stage holds: its runtime and its kernel.
+/// What every stage holds: its runtime and its kernel. OpenCL takes a kernel's argument values
+/// when it is enqueued, so one kernel object serves every call of a frame (each level, each view).
 class StageKernel {
  protected:
   /// No kernel (a stage with nothing to do in its configuration).
