@@ -294,7 +294,10 @@ Calibration read_storage(const std::string& path) {
   c.source = path;
 
   // Image size: image_width / image_height, or width / height.
-  const std::string width_key = file.has("image_width") || file.has("image_height") ? "image_width" : "width";
+  const std::string width_key = !file.has("image_width") && !file.has("image_height") &&
+                                        (file.has("width") || file.has("height"))
+                                    ? "width"
+                                    : "image_width";
   const std::string height_key = width_key == "image_width" ? "image_height" : "height";
   c.width = file.integer(width_key).value_or(0);
   c.height = file.integer(height_key).value_or(0);
@@ -378,10 +381,15 @@ Calibration read_storage(const std::string& path) {
   return c;
 }
 
+// A line "cam0=...", "cam1=...", "baseline=..." or "doffs=..." makes a file a calib.txt.
 bool looks_like_middlebury(const std::string& text) {
   std::istringstream lines(text);
-  for (std::string line; std::getline(lines, line);)
-    if (trimmed(line).rfind("cam0", 0) == 0 && line.find('=') != std::string::npos) return true;
+  for (std::string line; std::getline(lines, line);) {
+    const std::size_t eq = line.find('=');
+    if (eq == std::string::npos) continue;
+    const std::string key = trimmed(line.substr(0, eq));
+    if (key == "cam0" || key == "cam1" || key == "baseline" || key == "doffs") return true;
+  }
   return false;
 }
 
