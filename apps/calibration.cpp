@@ -450,13 +450,23 @@ void check_calibration_fits(const Calibration& calibration, int width, int heigh
                      ": use the calibration of that size (scaling an image scales focal, cx, cy and doffs)");
 }
 
+const CLI::Validator& positive_number() {
+  static const CLI::Validator validator(
+      [](std::string& text) -> std::string {
+        const std::optional<double> v = parse_number(text);
+        return v && *v > 0.0 ? "" : "must be a positive number, not '" + text + "'";
+      },
+      "POSITIVE");
+  return validator;
+}
+
 void CalibrationFlags::add_to(CLI::App& app) {
   app.add_option("--calib", file_,
                  "stereo calibration: Middlebury calib.txt, or OpenCV YAML/XML/JSON with P1 P2, Q, or K1 D1 K2 D2 R T");
   app.add_option("--focal", focal_, "focal length in pixels of the images as given (overrides --calib)")
-      ->check(CLI::PositiveNumber);
+      ->check(positive_number());
   app.add_option("--baseline", baseline_, "distance between the camera centres, in --units (overrides --calib)")
-      ->check(CLI::PositiveNumber);
+      ->check(positive_number());
   app.add_option("--cx", cx_, "principal point x of the left rectified camera, pixels (default (width - 1) / 2)");
   app.add_option("--cy", cy_, "principal point y, pixels (default (height - 1) / 2)");
   app.add_option("--doffs", doffs_, "x of the right principal point minus x of the left, pixels (default 0)");

@@ -59,6 +59,9 @@ void write_calibration(const std::string& path, const Calibration& calibration);
 /// size is refused as well: a scaled image needs the calibration of its own size.
 void check_calibration_fits(const Calibration& calibration, int width, int height, const std::string& image);
 
+/// A check of CLI11 for flags that take a positive finite number ("must be a positive number, not X").
+const CLI::Validator& positive_number();
+
 /// --calib FILE and the plain flags --focal, --baseline, --cx, --cy, --doffs, --units. Flags
 /// override the file's values; without a file, --focal and --baseline are needed and cx, cy
 /// default to the image centre ((width - 1) / 2, (height - 1) / 2), doffs to 0. --units names the

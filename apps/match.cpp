@@ -144,7 +144,7 @@ MatchCommand::MatchCommand(CLI::App& parent)
   app.add_option("--obj", obj_output_, "write the point cloud as Wavefront OBJ with colours (needs a calibration)");
   app.add_option("--max-depth", max_depth_,
                  "leave out of --depth, --ply and --obj what lies deeper than Z (units of the baseline)")
-      ->check(CLI::PositiveNumber);
+      ->check(positive_number());
 }
 
 void MatchCommand::run() const {
