@@ -20,7 +20,8 @@ struct Calibration {
   StereoGeometry geometry;
   /// Image size the calibration was made for; 0 x 0 when unknown (flags only).
   int width = 0, height = 0;
-  /// The raw rig (OpenCV files with K1, D1, K2, D2, R, T): the input must be rectified first.
+  /// The images are those of the raw rig and must be rectified first (OpenCV files with K1, D1,
+  /// K2, D2 that do not say `rectified: 1`; see read_calibration).
   /// R1, R2, P1, P2 and Q are those of the file when it has them, else computed by stereoRectify.
   bool needs_rectification = false;
   cv::Mat K1, D1, K2, D2, R, T, R1, R2, P1, P2, Q;
@@ -40,10 +41,11 @@ struct Calibration {
 /// Middlebury: focal, cx, cy from cam0; doffs from the file, else cam1's cx minus cam0's cx.
 /// OpenCV files (M1, M2 are read as K1, K2, as OpenCV's stereo_calib sample writes them):
 /// - the geometry comes from P1 and P2 (focal = P1(0,0), cx = P1(0,2), cy = P1(1,2),
-///   baseline = -P2(0,3) / P2(0,0), doffs = P2(0,2) - P1(0,2)); else from Q
-///   (cx = -Q(0,3), cy = -Q(1,3), focal = Q(2,3), baseline = 1 / Q(3,2), doffs = Q(3,3) baseline);
-///   else K1, D1, K2, D2, R, T are rectified by cv::stereoRectify (alpha 0,
-///   CALIB_ZERO_DISPARITY), which needs the image size.
+///   baseline = -P2(0,3) / P2(0,0), doffs = P2(0,2) - P1(0,2)). Without P1, P2 in the file, a
+///   file with K1, D1, K2, D2, R, T gets them (and R1, R2, Q where it lacks them) from
+///   cv::stereoRectify (alpha 0, CALIB_ZERO_DISPARITY), which needs the image size; any other file
+///   needs Q (cx = -Q(0,3), cy = -Q(1,3), focal = Q(2,3), baseline = 1 / Q(3,2),
+///   doffs = Q(3,3) baseline). Only left-right pairs: a vertical P2 is refused.
 /// - needs_rectification: a file holding the raw cameras (K1, D1, K2, D2) is for images as the
 ///   cameras took them, which must be rectified (with R1, R2, P1, P2); `rectified: 1` in the file
 ///   says the images are rectified already. A file without K1, D1, K2, D2 is for rectified images.

@@ -3,8 +3,8 @@
 #include <cstdio>
 #include <iostream>
 #include <limits>
-#include <sstream>
 #include <map>
+#include <sstream>
 #include <vector>
 
 #include "depth_files.hpp"
@@ -58,6 +58,13 @@ double valid_percent(MapView<const std::int16_t> q4, std::int16_t invalid) {
   return 100.0 * static_cast<double>(valid) / (static_cast<double>(q4.width) * q4.height);
 }
 
+std::string number_text(double v) {
+  std::ostringstream s;
+  s.precision(10);
+  s << v;
+  return s.str();
+}
+
 std::string geometry_text(const StereoGeometry& g) {
   std::ostringstream s;
   s.precision(10);
@@ -104,7 +111,7 @@ std::string MatchCommand::write_depth_outputs(MapView<const std::int16_t> q4, st
         "left " + left_,
         "right " + right_,
     };
-    if (max_depth_ > 0.0) comments.push_back("max depth " + std::to_string(max_depth_) + " " + geometry.units);
+    if (max_depth_ > 0.0) comments.push_back("max depth " + number_text(max_depth_) + " " + geometry.units);
     const std::string points = std::to_string(cloud.size()) + " points, " + geometry.units;
     if (!ply_output_.empty()) {
       outputs.add(ply_output_, encode_point_cloud(cloud, CloudFormat::Ply, comments));
@@ -216,7 +223,7 @@ void MatchCommand::run() const {
                      " is for unrectified images (it holds K1, D1, K2, D2 without 'rectified: 1'): match takes "
                      "rectified pairs; apply the rectification first, or mark the file 'rectified: 1' if the pair "
                      "is rectified already");
-  if (calibration && !depth_output_.empty() && depth_format_for(depth_output_) == DepthFormat::PngMillimetres)
+  if (calibration && !depth_output_.empty() && depth_format == DepthFormat::PngMillimetres)
     (void)millimetres_per_unit(calibration->geometry.units);  // a unit a PNG of millimetres cannot convert
 
   Matcher matcher = run_flags_.make_matcher(left.cols, left.rows, requested, !right_output_.empty());

@@ -1,6 +1,6 @@
-// `mctstereo match` with a calibration: depth maps and point clouds of the Tsukuba pair read back
-// and checked against the disparity file written beside them, and the mistakes that must write
-// nothing.
+// Depth files (PFM, 16-bit PNG of millimetres) encoded and decoded, and `mctstereo match` with a
+// calibration: depth maps and point clouds of the Tsukuba pair read back and checked against the
+// disparity file written beside them, and the mistakes that must write nothing.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -13,10 +13,14 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <set>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include "depth_files.hpp"
+#include "errors.hpp"
 
 #include "cli_test_util.hpp"
 
@@ -124,6 +128,41 @@ const std::string kGeometryFlags = "--focal 400 --baseline 0.16 --cx 190 --cy 14
 std::string calib_txt(int width, int height) {
   return "cam0=[400 0 190; 0 400 140; 0 0 1]\ncam1=[400 0 191.5; 0 400 140; 0 0 1]\ndoffs=1.5\nbaseline=160\n"
          "width=" + std::to_string(width) + "\nheight=" + std::to_string(height) + "\nndisp=16\n";
+}
+
+TEST(DepthFiles, PngHoldsRoundedMillimetresAndZeroWhereNone) {
+  using namespace mctstereo;
+  using namespace mctstereo::app;
+  // Metres: 1.2344 m, 65.535 m (the largest), 65.536 m (beyond), none, 0.0004 m (under 0.5 mm).
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  const std::vector<float> depth = {1.2344f, 65.535f, 65.536f, nan, 0.0004f, inf, 2.0f, 0.0f};
+  const MapView<const float> map{depth.data(), 4, 2, 4};
+  const std::vector<std::uint8_t> png = encode_depth(map, "m", DepthFormat::PngMillimetres);
+  const cv::Mat decoded = cv::imdecode(png, cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(decoded.type(), CV_16UC1);
+  ASSERT_EQ(decoded.size(), cv::Size(4, 2));
+  const std::uint16_t expected[2][4] = {{1234, 65535, 0, 0}, {1, 0, 2000, 0}};
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 4; ++x) EXPECT_EQ(decoded.at<std::uint16_t>(y, x), expected[y][x]) << x << "," << y;
+  // Other units are converted to millimetres.
+  const cv::Mat inches = cv::imdecode(encode_depth(map, "in", DepthFormat::PngMillimetres), cv::IMREAD_UNCHANGED);
+  EXPECT_EQ(inches.at<std::uint16_t>(1, 2), 51);  // 2 in = 50.8 mm
+  EXPECT_EQ(millimetres_per_unit("CM"), 10.0);
+  EXPECT_EQ(millimetres_per_unit("ft"), 304.8);
+  EXPECT_THROW(millimetres_per_unit("furlong"), UsageError);
+  EXPECT_THROW(encode_depth(map, "", DepthFormat::PngMillimetres), UsageError);  // relative depth
+
+  // PFM: the values as they are, +INF where none.
+  const cv::Mat pfm = cv::imdecode(encode_depth(map, "", DepthFormat::Pfm), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(pfm.type(), CV_32FC1);
+  EXPECT_EQ(pfm.at<float>(0, 0), 1.2344f);
+  EXPECT_EQ(pfm.at<float>(0, 3), inf);
+  EXPECT_EQ(pfm.at<float>(1, 1), inf);
+  EXPECT_EQ(pfm.at<float>(1, 2), 2.0f);
+
+  EXPECT_EQ(depth_format_for("a/b.PFM"), DepthFormat::Pfm);
+  EXPECT_EQ(depth_format_for("z.png"), DepthFormat::PngMillimetres);
+  EXPECT_THROW(depth_format_for("z.tif"), UsageError);
 }
 
 class DepthCli : public ::testing::Test {
