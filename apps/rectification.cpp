@@ -251,8 +251,9 @@ RectificationReport check_rectification(const cv::Mat& left, const cv::Mat& righ
     throw RuntimeError("only " + std::to_string(report.matches) + " features match between the views (" +
                        std::to_string(report.features_left) + " found in the left, " +
                        std::to_string(report.features_right) + " in the right), too few to measure the rows: " +
-                       (few_features ? "the images look textureless (blank, blurred or very dark)"
-                                     : "the views may show different scenes, or differ too much in scale or exposure"));
+                       (std::min(left_gray.cols, left_gray.rows) < 64 ? "the images are too small"
+                        : few_features ? "the images look textureless (blank, blurred or very dark)"
+                                       : "the views may show different scenes, or differ too much in scale or exposure"));
   }
   report.median_dy = median(kept_dy);
   report.median_abs_dy = median(abs_dy);

@@ -38,8 +38,8 @@ constexpr const char* kRenderFooter = R"(Conventions:
   turned towards the centre. --yaw turns it about the vertical axis through the centre (positive:
   from the left), --pitch about the horizontal one (negative: from above, looking down), and
   --distance scales its distance to the centre (2: twice as far).
-  The principal point is the centre of the picture; without --focal the focal length fits 98 % of
-  the points into it. Each point is a square of --point-size pixels; where points overlap, the
+  The principal point is the centre of the picture; without --focal the focal length fits 99.5 %
+  of the points into it. Each point is a square of --point-size pixels; where points overlap, the
   nearest one is drawn. Clouds without colours are drawn in gray, lighter where nearer.
   PLY files: ascii or binary_little_endian, vertex x y z (float or double) with optional red green
   blue (uchar); other properties and elements are skipped.
@@ -227,6 +227,8 @@ Cloud read_ply(const std::string& path) {
         words >> count_type >> item_type >> property.name;
         const auto c = ply_type(count_type), i = ply_type(item_type);
         if (!c || !i) throw RuntimeError(where + ": unknown type in '" + line + "'");
+        if (*c == PlyType::Float32 || *c == PlyType::Float64)
+          throw RuntimeError(where + ": the length of a list must have an integer type: '" + line + "'");
         property.is_list = true;
         property.count_type = *c;
         property.type = *i;
@@ -270,6 +272,13 @@ Cloud read_ply(const std::string& path) {
     if (index[k] != kNone) role[static_cast<std::size_t>(index[k])] = k;
 
   PlyValues values(bytes, at, format == "ascii");
+  const auto list_length = [&](double length, const std::string& element, std::int64_t row) {
+    // Each item takes at least a byte: a longer list cannot be in the file.
+    if (!(length >= 0.0 && length <= static_cast<double>(bytes.size())))
+      throw RuntimeError(where + ": a list of " + element + " " + std::to_string(row + 1) + " has the length " +
+                         std::to_string(length));
+    return static_cast<std::int64_t>(length);
+  };
   const auto truncated = [&](const std::string& element, std::int64_t row, std::int64_t count) {
     if (!values.bad_token().empty())
       return RuntimeError(where + ": '" + values.bad_token() + "' in " + element + " " + std::to_string(row + 1) +
@@ -284,7 +293,7 @@ Cloud read_ply(const std::string& path) {
       for (const PlyProperty& p : elements[e].properties) {
         if (!values.next(p.is_list ? p.count_type : p.type, value))
           throw truncated(elements[e].name, row, elements[e].count);
-        const std::int64_t items = p.is_list ? static_cast<std::int64_t>(value) : 0;
+        const std::int64_t items = p.is_list ? list_length(value, elements[e].name, row) : 0;
         for (std::int64_t i = 0; i < items; ++i)
           if (!values.next(p.type, value)) throw truncated(elements[e].name, row, elements[e].count);
       }
@@ -301,14 +310,17 @@ Cloud read_ply(const std::string& path) {
       if (!values.next(property.is_list ? property.count_type : property.type, value))
         throw truncated("vertex", row, vertices.count);
       if (property.is_list) {
-        const std::int64_t items = static_cast<std::int64_t>(value);
+        const std::int64_t items = list_length(value, "vertex", row);
         for (std::int64_t i = 0; i < items; ++i)
           if (!values.next(property.type, value)) throw truncated("vertex", row, vertices.count);
       } else if (role[p] != kNone) {
         vertex[role[p]] = value;
       }
     }
-    for (int k = 0; k < 3; ++k) cloud.xyz.push_back(static_cast<float>(vertex[k]));
+    for (int k = 0; k < 3; ++k)  // beyond the range of float: not a point to draw
+      cloud.xyz.push_back(std::abs(vertex[k]) <= std::numeric_limits<float>::max()
+                              ? static_cast<float>(vertex[k])
+                              : std::numeric_limits<float>::quiet_NaN());
     if (colours)
       for (int k = 3; k < 6; ++k) {
         const PlyType type = vertices.properties[static_cast<std::size_t>(index[k])].type;
@@ -461,13 +473,14 @@ void RenderCommand::run() const {
   const double cx = 0.5 * (size.width - 1), cy = 0.5 * (size.height - 1);
   double focal = focal_;
   if (focal <= 0.0) {
-    // Fit 98 % of the points into the picture, with a margin of 5 % on each side.
+    // Fit 99.5 % of the points into the picture, with a margin of 5 % on each side: a few stray
+    // points (mismatches) do not shrink the view.
     std::vector<double> spread_x, spread_y;
     for (const cv::Vec3f& p : in_camera) {
       spread_x.push_back(std::abs(p[0] / p[2]));
       spread_y.push_back(std::abs(p[1] / p[2]));
     }
-    const double sx = percentile(spread_x, 98.0), sy = percentile(spread_y, 98.0);
+    const double sx = percentile(spread_x, 99.5), sy = percentile(spread_y, 99.5);
     focal = std::min(sx > 0 ? 0.45 * size.width / sx : 1e30, sy > 0 ? 0.45 * size.height / sy : 1e30);
     if (!(focal < 1e29)) focal = std::max(size.width, size.height);
   }
@@ -490,7 +503,7 @@ void RenderCommand::run() const {
   cv::Mat picture(size, CV_8UC3, cv::Scalar(background[0], background[1], background[2]));
   std::vector<float> depth(static_cast<std::size_t>(size.width) * size.height, std::numeric_limits<float>::infinity());
   const int lo = -(point_size_ - 1) / 2, hi = point_size_ / 2;
-  std::size_t drawn = 0;
+  std::size_t in_view = 0;
   for (std::size_t n = 0; n < in_camera.size(); ++n) {
     const cv::Vec3f& p = in_camera[n];
     const double u = focal * p[0] / p[2] + cx, v = focal * p[1] / p[2] + cy;
@@ -501,17 +514,15 @@ void RenderCommand::run() const {
     const std::size_t i = source[n];
     const std::uint8_t* rgb = cloud.rgb.empty() ? nullptr : &cloud.rgb[3 * i];
     const cv::Vec3b colour = rgb ? cv::Vec3b(rgb[2], rgb[1], rgb[0]) : gray_of_depth(p[2]);
-    bool any = false;
+    in_view += ui >= 0 && ui < size.width && vi >= 0 && vi < size.height ? 1 : 0;
     for (int y = std::max(vi + lo, 0); y <= std::min(vi + hi, size.height - 1); ++y)
       for (int x = std::max(ui + lo, 0); x <= std::min(ui + hi, size.width - 1); ++x) {
         float& nearest = depth[static_cast<std::size_t>(y) * size.width + x];
         if (p[2] < nearest) {
           nearest = p[2];
           picture.at<cv::Vec3b>(y, x) = colour;
-          any = true;
         }
       }
-    drawn += any ? 1 : 0;
   }
 
   std::vector<std::uint8_t> bytes;
@@ -520,7 +531,7 @@ void RenderCommand::run() const {
   PendingOutputs outputs;
   outputs.add(output_, bytes);
   outputs.commit();
-  std::cout << cloud_ << ": " << cloud.size() << " points, " << drawn << " drawn; wrote " << output_ << " ("
+  std::cout << cloud_ << ": " << cloud.size() << " points, " << in_view << " in view; wrote " << output_ << " ("
             << size.width << "x" << size.height << ", focal " << fixed(focal, 1) << " px, camera at "
             << point_text(camera) << " looking at " << point_text(centre) << ")\n";
 }

@@ -219,7 +219,7 @@ TEST_F(Render, DefaultViewFitsTheCloud) {
   ASSERT_EQ(r.status, 0) << r.output;
   const cv::Mat view = cv::imread((folder_ / "view.jpg").string(), cv::IMREAD_COLOR);
   EXPECT_EQ(view.size(), cv::Size(800, 600));
-  EXPECT_NE(r.output.find("5 points, 5 drawn"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("5 points, 5 in view"), std::string::npos) << r.output;
 }
 
 TEST_F(Render, BadFilesAndFlagsAreRefused) {
