@@ -457,7 +457,7 @@ void RenderCommand::run() const {
 
   // Points in the view camera's frame; those behind it (or at it) are not drawn.
   const double near = 1e-6 * cv::norm(offset) * distance_;
-  std::vector<cv::Vec3f> in_camera;
+  std::vector<cv::Vec3d> in_camera;
   std::vector<std::size_t> source;
   in_camera.reserve(finite.size());
   source.reserve(finite.size());
@@ -465,7 +465,7 @@ void RenderCommand::run() const {
     const cv::Vec3d p = world_to_camera * (cv::Vec3d(cloud.xyz[3 * i], cloud.xyz[3 * i + 1], cloud.xyz[3 * i + 2]) -
                                            camera);
     if (p[2] > near) {
-      in_camera.emplace_back(static_cast<float>(p[0]), static_cast<float>(p[1]), static_cast<float>(p[2]));
+      in_camera.push_back(p);
       source.push_back(i);
     }
   }
@@ -476,7 +476,7 @@ void RenderCommand::run() const {
     // Fit 99.5 % of the points into the picture, with a margin of 5 % on each side: a few stray
     // points (mismatches) do not shrink the view.
     std::vector<double> spread_x, spread_y;
-    for (const cv::Vec3f& p : in_camera) {
+    for (const cv::Vec3d& p : in_camera) {
       spread_x.push_back(std::abs(p[0] / p[2]));
       spread_y.push_back(std::abs(p[1] / p[2]));
     }
@@ -490,7 +490,7 @@ void RenderCommand::run() const {
   if (cloud.rgb.empty() && !in_camera.empty()) {
     std::vector<double> depths;
     depths.reserve(in_camera.size());
-    for (const cv::Vec3f& p : in_camera) depths.push_back(p[2]);
+    for (const cv::Vec3d& p : in_camera) depths.push_back(p[2]);
     near_depth = percentile(depths, 2.0);
     far_depth = percentile(depths, 98.0);
   }
@@ -501,11 +501,12 @@ void RenderCommand::run() const {
   };
 
   cv::Mat picture(size, CV_8UC3, cv::Scalar(background[0], background[1], background[2]));
-  std::vector<float> depth(static_cast<std::size_t>(size.width) * size.height, std::numeric_limits<float>::infinity());
+  const std::size_t pixels = static_cast<std::size_t>(size.width) * size.height;
+  std::vector<double> depth(pixels, std::numeric_limits<double>::infinity());
   const int lo = -(point_size_ - 1) / 2, hi = point_size_ / 2;
   std::size_t in_view = 0;
   for (std::size_t n = 0; n < in_camera.size(); ++n) {
-    const cv::Vec3f& p = in_camera[n];
+    const cv::Vec3d& p = in_camera[n];
     const double u = focal * p[0] / p[2] + cx, v = focal * p[1] / p[2] + cy;
     if (!(u > -point_size_ - 1.0 && u < size.width + point_size_ && v > -point_size_ - 1.0 &&
           v < size.height + point_size_))
@@ -517,7 +518,7 @@ void RenderCommand::run() const {
     in_view += ui >= 0 && ui < size.width && vi >= 0 && vi < size.height ? 1 : 0;
     for (int y = std::max(vi + lo, 0); y <= std::min(vi + hi, size.height - 1); ++y)
       for (int x = std::max(ui + lo, 0); x <= std::min(ui + hi, size.width - 1); ++x) {
-        float& nearest = depth[static_cast<std::size_t>(y) * size.width + x];
+        double& nearest = depth[static_cast<std::size_t>(y) * size.width + x];
         if (p[2] < nearest) {
           nearest = p[2];
           picture.at<cv::Vec3b>(y, x) = colour;
