@@ -90,9 +90,13 @@ class CalibrationFlags {
 /// Rectification of an unrectified rig: the maps are computed once, then every frame is remapped.
 class Rectifier {
  public:
-  /// For images of width x height. RuntimeError when the calibration does not fit the size.
+  /// For images of width x height, with the calibration's R1, R2, P1, P2 when it has them, else
+  /// those of cv::stereoRectify (zero disparity at infinity, only valid pixels kept). RuntimeError
+  /// when the calibration does not fit the size, lacks K1, K2 or R, T, or the cameras are not side
+  /// by side with the right one on the right.
   Rectifier(const Calibration& calibration, int width, int height);
-  /// Remaps a pair into the rectified frame (`left_out` and `right_out` are reused between frames).
+  /// Remaps a pair into the rectified frame (`left_out` and `right_out` are reused between frames;
+  /// they must not be the inputs). RuntimeError when the images are not of the size given.
   void rectify(const cv::Mat& left, const cv::Mat& right, cv::Mat& left_out, cv::Mat& right_out) const;
   /// The geometry of the rectified pair.
   const StereoGeometry& geometry() const { return geometry_; }
@@ -106,7 +110,10 @@ class Rectifier {
 /// the same row in both views, so the vertical offsets of good matches should be near 0.
 struct RectificationReport {
   int features_left = 0, features_right = 0;
-  int matches = 0;              ///< matches kept (mutual best, ratio test, positive disparity range)
+  int matches = 0;              ///< matches kept (mutual best, ratio test, plausible offsets, not outliers)
+  int outliers = 0;             ///< matches dropped as mismatches: dy far from the median of the others
+  int negative_disparities = 0;  ///< kept matches with x_left < x_right (most of them: a swapped pair)
+  double median_dx = 0.0;       ///< median of the disparity x_left - x_right, pixels
   double median_dy = 0.0;       ///< median of (y_right - y_left), pixels
   double median_abs_dy = 0.0;   ///< median of |y_right - y_left|
   double p95_abs_dy = 0.0;      ///< 95th percentile of |y_right - y_left|

@@ -1,4 +1,4 @@
-// mctstereo: the command line. Subcommands match, eval, bench and devices; every failure ends as one line
+// mctstereo: the command line. Subcommands match, eval, bench, devices and render; every failure ends as one line
 // "mctstereo: error: ..." on stderr with exit status 2 (usage) or 1 (runtime).
 #include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
@@ -12,6 +12,7 @@
 #include "errors.hpp"
 #include "eval.hpp"
 #include "match.hpp"
+#include "render.hpp"
 
 namespace {
 
@@ -36,12 +37,14 @@ int main(int argc, char** argv) {
   EvalCommand eval(app);
   BenchCommand bench(app);
   DevicesCommand devices(app);
+  RenderCommand render(app);
 
   // CLI11 would call a misspelt subcommand a stray argument; name it instead.
   if (argc > 1 && argv[1][0] != '-') {
     const std::string_view name = argv[1];
-    if (name != "match" && name != "eval" && name != "bench" && name != "devices")
-      return fail(kExitUsage, std::string("unknown subcommand '") + argv[1] + "' (known: match, eval, bench, devices)");
+    if (name != "match" && name != "eval" && name != "bench" && name != "devices" && name != "render")
+      return fail(kExitUsage,
+                  std::string("unknown subcommand '") + argv[1] + "' (known: match, eval, bench, devices, render)");
   }
 
   try {
@@ -56,6 +59,7 @@ int main(int argc, char** argv) {
     if (eval.selected()) eval.run();
     if (bench.selected()) bench.run();
     if (devices.selected()) devices.run();
+    if (render.selected()) render.run();
     return 0;
   } catch (const UsageError& e) {
     return fail(kExitUsage, e.what());
