@@ -38,8 +38,12 @@ the units of the baseline: Middlebury calib.txt is in mm, OpenCV files in m unle
   --ply     binary little-endian PLY: float x y z, uchar red green blue (the left image's colours).
   --obj     Wavefront OBJ: "v x y z r g b", colours in [0, 1].
   Pixels without disparity, with d + doffs <= 0 or deeper than --max-depth have no depth or point.
-  A calibration file of the raw cameras (K1 D1 K2 D2 without "rectified: 1") is for unrectified
-  images: match takes rectified pairs and refuses it.
+Unrectified pairs: a calibration file of the raw cameras (K1 D1 K2 D2 without "rectified: 1")
+says the images are as the cameras took them; match then rectifies them first (OpenCV remap with
+the file's R1 R2 P1 P2, or stereoRectify's), and every output is in the rectified left frame.
+--check-rectification measures the vertical offsets of matched features (ORB) between the views
+of the pair that is matched (and of the raw pair when match rectified it): in a rectified pair
+they are near 0 px; above about 1 px the matching along rows degrades. Without -o it only reports.
 The summary line gives the stage times of the frame in milliseconds. With --backend opencl they
 are the kernels' device times from profiling events, next to the host's wall times of upload,
 download, speckle (speckle removal runs on the host) and frame (the whole call).
@@ -71,6 +75,14 @@ std::string geometry_text(const StereoGeometry& g) {
   s << "focal " << g.focal << " px, cx " << g.cx << " px, cy " << g.cy << " px, baseline " << g.baseline << " "
     << g.units << ", doffs " << g.doffs << " px";
   return s.str();
+}
+
+void check_pair_size(const cv::Mat& left, const cv::Mat& right, const std::string& left_path,
+                     const std::string& right_path) {
+  if (left.size() != right.size())
+    throw RuntimeError("left image " + in_quotes(left_path) + " is " + std::to_string(left.cols) + "x" +
+                       std::to_string(left.rows) + " but right image " + in_quotes(right_path) + " is " +
+                       std::to_string(right.cols) + "x" + std::to_string(right.rows) + ": a stereo pair has one size");
 }
 
 }  // namespace
@@ -132,8 +144,9 @@ MatchCommand::MatchCommand(CLI::App& parent)
   app.footer(kMatchFooter);
   app.add_option("LEFT", left_, "left image (PNG, PPM, PGM, JPEG; 8-bit gray or colour)")->required();
   app.add_option("RIGHT", right_, "right image, the same size as LEFT")->required();
-  app.add_option("-o,--output", output_, "disparity file of the left view: .pfm or .png (see --format)")
-      ->required();
+  app.add_option("-o,--output", output_,
+                 "disparity file of the left view: .pfm or .png (see --format); needed unless only "
+                 "--check-rectification is asked for");
   app.add_option("--format", format_,
                  "encoding of .png outputs: kitti (256 x d, default) or q4 (16 x (d - min + 1)); pfm for .pfm")
       ->check(CLI::IsMember({"kitti", "q4", "pfm"}));
@@ -152,6 +165,22 @@ MatchCommand::MatchCommand(CLI::App& parent)
   app.add_option("--max-depth", max_depth_,
                  "leave out of --depth, --ply and --obj what lies deeper than Z (units of the baseline)")
       ->check(positive_number());
+  app.add_flag("--check-rectification", check_rectification_,
+               "report the vertical offsets of matched features between the views (0 px in a rectified pair)");
+}
+
+std::string MatchCommand::report_rectification(const cv::Mat& left, const cv::Mat& right, std::string_view which) {
+  const RectificationReport r = check_rectification(left, right);
+  std::ostringstream line;
+  line.precision(3);
+  line << "rectification of " << which << ": " << r.matches << " feature matches (" << r.features_left
+       << " features left, " << r.features_right << " right, " << r.outliers << " outliers dropped); dy median "
+       << r.median_dy << " px, |dy| median " << r.median_abs_dy << ", p95 " << r.p95_abs_dy << ", max "
+       << r.max_abs_dy << "; disparity median " << r.median_dx << " px";
+  if (r.negative_disparities * 2 > r.matches)
+    line << " (most matches have negative disparity: are LEFT and RIGHT swapped?)";
+  line << "; " << r.verdict;
+  return line.str();
 }
 
 void MatchCommand::run() const {
@@ -160,6 +189,29 @@ void MatchCommand::run() const {
   (void)run_flags_.parsed_backend();  // a misspelt backend or misplaced --device costs no image reading
 
   // Every check that needs no pixels comes first, so a mistake costs no matching.
+  if (output_.empty()) {
+    if (!check_rectification_)
+      throw UsageError("-o,--output is required: give the disparity file to write (or --check-rectification alone "
+                       "to only measure the rectification)");
+    if (!right_output_.empty() || !preview_.empty() || !depth_output_.empty() || !ply_output_.empty() ||
+        !obj_output_.empty())
+      throw UsageError("-o,--output is required with --right-output, --color, --depth, --ply and --obj");
+    const cv::Mat left = read_input_image(left_, "left image");
+    const cv::Mat right = read_input_image(right_, "right image");
+    check_pair_size(left, right, left_, right_);
+    const std::optional<Calibration> calibration =
+        calibration_flags_.resolve(left.cols, left.rows, "left image " + in_quotes(left_));
+    std::cout << report_rectification(left, right, "the input pair") << "\n";
+    if (calibration && calibration->needs_rectification) {
+      const Rectifier rectifier(*calibration, left.cols, left.rows);
+      cv::Mat left_rectified, right_rectified;
+      rectifier.rectify(left, right, left_rectified, right_rectified);
+      std::cout << report_rectification(left_rectified, right_rectified,
+                                        "the pair rectified with " + in_quotes(calibration->source))
+                << "\n";
+    }
+    return;
+  }
   std::vector<std::string> inputs = {left_, right_};
   if (!calibration_flags_.file().empty()) inputs.push_back(calibration_flags_.file());
   const DisparityFormat format = disparity_format_for(output_, format_);
@@ -207,22 +259,26 @@ void MatchCommand::run() const {
   check_format_range(format, requested, output_);
   if (!right_output_.empty()) check_format_range(right_format, requested, right_output_);
 
-  const cv::Mat left = read_input_image(left_, "left image");
-  const cv::Mat right = read_input_image(right_, "right image");
-  if (left.size() != right.size())
-    throw RuntimeError("left image " + in_quotes(left_) + " is " + std::to_string(left.cols) + "x" +
-                       std::to_string(left.rows) + " but right image " + in_quotes(right_) + " is " +
-                       std::to_string(right.cols) + "x" + std::to_string(right.rows) +
-                       ": a rectified pair has one size");
-  check_parameters(requested, left.cols, left.rows);
-  const std::optional<Calibration> calibration =
-      calibration_flags_.resolve(left.cols, left.rows, "left image " + in_quotes(left_));
-  if (calibration && calibration->needs_rectification)
-    // The place where an unrectified pair would be remapped into the rectified frame (Rectifier).
-    throw UsageError("calibration " + in_quotes(calibration->source) +
-                     " is for unrectified images (it holds K1, D1, K2, D2 without 'rectified: 1'): match takes "
-                     "rectified pairs; apply the rectification first, or mark the file 'rectified: 1' if the pair "
-                     "is rectified already");
+  const cv::Mat input_left = read_input_image(left_, "left image");
+  const cv::Mat input_right = read_input_image(right_, "right image");
+  check_pair_size(input_left, input_right, left_, right_);
+  check_parameters(requested, input_left.cols, input_left.rows);
+  std::optional<Calibration> calibration =
+      calibration_flags_.resolve(input_left.cols, input_left.rows, "left image " + in_quotes(left_));
+  // A calibration of the raw cameras: the pair is remapped into the rectified frame first, and its
+  // geometry (focal, principal point, baseline) becomes that of the rectified cameras.
+  cv::Mat left = input_left, right = input_right;
+  std::string rectified_note;
+  if (calibration && calibration->needs_rectification) {
+    if (check_rectification_) std::cout << report_rectification(input_left, input_right, "the input pair") << "\n";
+    const Rectifier rectifier(*calibration, input_left.cols, input_left.rows);
+    rectifier.rectify(input_left, input_right, left, right);
+    calibration->geometry = rectifier.geometry();
+    rectified_note = ", rectified with " + in_quotes(calibration->source);
+  }
+  if (check_rectification_)
+    std::cout << report_rectification(left, right, rectified_note.empty() ? "the input pair" : "the rectified pair")
+              << "\n";
   if (calibration && !depth_output_.empty() && depth_format == DepthFormat::PngMillimetres)
     (void)millimetres_per_unit(calibration->geometry.units);  // a unit a PNG of millimetres cannot convert
 
@@ -269,7 +325,7 @@ void MatchCommand::run() const {
                                 : ", SIMD " + matcher.simd_target() + ", threads " + std::to_string(matcher.threads());
   std::cout << left.cols << "x" << left.rows << ", disparities " << params.min_disparity << ".."
             << params.max_disparity() << " (" << params.num_disparities << "), preset "
-            << parameters_.preset_name() << ", backend " << to_string(matcher.backend()) << where << "; ms:"
+            << parameters_.preset_name() << rectified_note << ", backend " << to_string(matcher.backend()) << where << "; ms:"
             << stages << "; frame "
             << frame << "; valid " << fixed(valid_percent(matcher.disparity_q4(), invalid), 1)
             << " %; wrote " << wrote << "\n";

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include "calibration.hpp"
 #include "options.hpp"
@@ -31,6 +32,9 @@ class MatchCommand {
   std::string write_depth_outputs(MapView<const std::int16_t> q4, std::int16_t invalid_q4, const cv::Mat& left,
                                   const std::optional<Calibration>& calibration, PendingOutputs& outputs) const;
 
+  // One line on the vertical offsets of matched features between the views; `which` names the pair.
+  static std::string report_rectification(const cv::Mat& left, const cv::Mat& right, std::string_view which);
+
   CLI::App* command_;
   ParameterFlags parameters_;
   RunFlags run_flags_;
@@ -39,6 +43,7 @@ class MatchCommand {
   std::string depth_output_, ply_output_, obj_output_;
   double max_depth_ = 0.0;  // 0 = no cut
   int repeat_ = 1;
+  bool check_rectification_ = false;
 };
 
 }  // namespace mctstereo::app

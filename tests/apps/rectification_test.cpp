@@ -8,8 +8,11 @@
 #include <opencv2/imgproc.hpp>
 
 #include <cmath>
+#include <filesystem>
 #include <string>
 #include <vector>
+
+#include <unistd.h>
 
 #include "calibration.hpp"
 #include "errors.hpp"
@@ -301,6 +304,55 @@ TEST(RectificationCheck, BlankImagesAreTooFewFeatures) {
   } catch (const RuntimeError& e) {
     EXPECT_NE(std::string(e.what()).find("different scenes"), std::string::npos) << e.what();
   }
+}
+
+// The command line with a calibration of the raw rig: match rectifies the pair first, reports both
+// pairs' rows, and its disparity and depth are those of the plane in the rectified frame.
+TEST(RectificationCli, MatchRectifiesARawPairWithItsCalibration) {
+  const SyntheticPair& pair = synthetic_pair();
+  const std::filesystem::path folder =
+      std::filesystem::temp_directory_path() / ("mctstereo_rectify_cli_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(folder);
+  std::filesystem::create_directories(folder);
+  ASSERT_TRUE(cv::imwrite((folder / "left.png").string(), pair.left));
+  ASSERT_TRUE(cv::imwrite((folder / "right.png").string(), pair.right));
+  // As OpenCV's stereo calibration writes it: the raw cameras with their rectifying transforms.
+  Calibration rig = pair.rig;
+  cv::stereoRectify(rig.K1, rig.D1, rig.K2, rig.D2, cv::Size(kWidth, kHeight), rig.R, rig.T, rig.R1, rig.R2, rig.P1,
+                    rig.P2, rig.Q, cv::CALIB_ZERO_DISPARITY, 0);
+  const Rectifier rectifier(rig, kWidth, kHeight);
+  rig.geometry = rectifier.geometry();
+  mctstereo::app::write_calibration((folder / "rig.yml").string(), rig);
+
+  const auto r = mctstereo::test::run_shell(
+      "cd " + mctstereo::test::shell_quoted(folder.string()) + " && " +
+      mctstereo::test::shell_quoted(mctstereo::test::kProgram.string()) +
+      " match left.png right.png --calib rig.yml --num-disparities 48 --preset quality -o d.pfm --depth z.pfm "
+      "--check-rectification 2>&1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("rectification of the input pair"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("; not rectified"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("rectification of the rectified pair"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("; rectified (median |dy|"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("rectified with 'rig.yml'"), std::string::npos) << r.output;
+
+  const cv::Mat& R1 = rig.R1;
+  const cv::Mat d = cv::imread((folder / "d.pfm").string(), cv::IMREAD_UNCHANGED);
+  const cv::Mat z = cv::imread((folder / "z.pfm").string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(d.type(), CV_32FC1);
+  ASSERT_EQ(z.type(), CV_32FC1);
+  // Points well inside the view: the map's disparity and depth are the plane's.
+  int checked = 0;
+  for (int v = 100; v <= 260; v += 40)
+    for (int u = 140; u <= 340; u += 50) {
+      const double expected = expected_disparity(rectifier, R1, u, v);
+      const double depth = rectifier.geometry().depth(expected);
+      EXPECT_NEAR(d.at<float>(v, u), expected, 0.5) << "at (" << u << ", " << v << ")";
+      EXPECT_NEAR(z.at<float>(v, u), depth, 0.03 * depth) << "at (" << u << ", " << v << ")";
+      ++checked;
+    }
+  EXPECT_EQ(checked, 25);
+  std::filesystem::remove_all(folder);
 }
 
 }  // namespace
