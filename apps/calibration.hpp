@@ -20,7 +20,8 @@ struct Calibration {
   StereoGeometry geometry;
   /// Image size the calibration was made for; 0 x 0 when unknown (flags only).
   int width = 0, height = 0;
-  /// The raw rig (OpenCV files with K1, D1, K2, D2, R, T): the input must be rectified first.
+  /// The images are those of the raw rig and must be rectified first (OpenCV files with K1, D1,
+  /// K2, D2 that do not say `rectified: 1`; see read_calibration).
   /// R1, R2, P1, P2 and Q are those of the file when it has them, else computed by stereoRectify.
   bool needs_rectification = false;
   cv::Mat K1, D1, K2, D2, R, T, R1, R2, P1, P2, Q;
@@ -36,27 +37,49 @@ struct Calibration {
 /// image_height (or width/height). Middlebury baselines are in millimetres; OpenCV translations in
 /// the unit of the calibration target, assumed metres unless the file has a "units" string.
 /// RuntimeError naming the file and the missing or malformed key.
+///
+/// Middlebury: focal, cx, cy from cam0; doffs from the file, else cam1's cx minus cam0's cx.
+/// OpenCV files (M1, M2 are read as K1, K2, as OpenCV's stereo_calib sample writes them):
+/// - the geometry comes from P1 and P2 (focal = P1(0,0), cx = P1(0,2), cy = P1(1,2),
+///   baseline = -P2(0,3) / P2(0,0), doffs = P2(0,2) - P1(0,2)). Without P1, P2 in the file, a
+///   file with K1, D1, K2, D2, R, T gets them (and R1, R2, Q where it lacks them) from
+///   cv::stereoRectify (alpha 0, CALIB_ZERO_DISPARITY), which needs the image size; any other file
+///   needs Q (cx = -Q(0,3), cy = -Q(1,3), focal = Q(2,3), baseline = 1 / Q(3,2),
+///   doffs = Q(3,3) baseline). Only left-right pairs: a vertical P2 is refused.
+/// - needs_rectification: a file holding the raw cameras (K1, D1, K2, D2) is for images as the
+///   cameras took them, which must be rectified (with R1, R2, P1, P2); `rectified: 1` in the file
+///   says the images are rectified already. A file without K1, D1, K2, D2 is for rectified images.
 Calibration read_calibration(const std::string& path);
 
-/// Writes `calibration` as an OpenCV YAML file that read_calibration reads back to the same values.
+/// Writes `calibration` as an OpenCV YAML file that read_calibration reads back to the same values
+/// (to rounding): image size, units, ndisp, the raw cameras and R1, R2 when it has them, with
+/// `rectified` 0 or 1, and P1, P2, Q made from the geometry.
 void write_calibration(const std::string& path, const Calibration& calibration);
 
 /// RuntimeError when the calibration was made for another image size than width x height (the
-/// rectification maps and the geometry would be wrong), naming both sizes and `image`.
+/// rectification maps and the geometry would be wrong), naming both sizes and `image`. A scaled
+/// size is refused as well: a scaled image needs the calibration of its own size.
 void check_calibration_fits(const Calibration& calibration, int width, int height, const std::string& image);
+
+/// A check of CLI11 for flags that take a positive finite number ("must be a positive number, not X").
+const CLI::Validator& positive_number();
 
 /// --calib FILE and the plain flags --focal, --baseline, --cx, --cy, --doffs, --units. Flags
 /// override the file's values; without a file, --focal and --baseline are needed and cx, cy
-/// default to the image centre.
+/// default to the image centre ((width - 1) / 2, (height - 1) / 2), doffs to 0. --units names the
+/// unit of --baseline (default: the file's unit, else m); with --calib and no --baseline, the file's
+/// baseline is converted into --units.
 class CalibrationFlags {
  public:
   void add_to(CLI::App& app);
   /// Whether any calibration was given.
   bool given() const;
-  /// The calibration of the flags for images of width x height; std::nullopt when none was given.
-  /// UsageError for an incomplete or invalid set of flags; RuntimeError from read_calibration or
-  /// check_calibration_fits.
-  std::optional<Calibration> resolve(int width, int height) const;
+  /// The --calib file ("" without one): an input, which no output may overwrite.
+  const std::string& file() const { return file_; }
+  /// The calibration of the flags for images of width x height (`image` names them in messages);
+  /// std::nullopt when none was given. UsageError for an incomplete or invalid set of flags;
+  /// RuntimeError from read_calibration or check_calibration_fits.
+  std::optional<Calibration> resolve(int width, int height, const std::string& image = "the image") const;
 
  private:
   std::string file_;
@@ -67,9 +90,13 @@ class CalibrationFlags {
 /// Rectification of an unrectified rig: the maps are computed once, then every frame is remapped.
 class Rectifier {
  public:
-  /// For images of width x height. RuntimeError when the calibration does not fit the size.
+  /// For images of width x height, with the calibration's R1, R2, P1, P2 when it has them, else
+  /// those of cv::stereoRectify (zero disparity at infinity, only valid pixels kept). RuntimeError
+  /// when the calibration does not fit the size, lacks K1, K2 or R, T, or the cameras are not side
+  /// by side with the right one on the right.
   Rectifier(const Calibration& calibration, int width, int height);
-  /// Remaps a pair into the rectified frame (`left_out` and `right_out` are reused between frames).
+  /// Remaps a pair into the rectified frame (`left_out` and `right_out` are reused between frames;
+  /// they must not be the inputs). RuntimeError when the images are not of the size given.
   void rectify(const cv::Mat& left, const cv::Mat& right, cv::Mat& left_out, cv::Mat& right_out) const;
   /// The geometry of the rectified pair.
   const StereoGeometry& geometry() const { return geometry_; }
@@ -83,7 +110,10 @@ class Rectifier {
 /// the same row in both views, so the vertical offsets of good matches should be near 0.
 struct RectificationReport {
   int features_left = 0, features_right = 0;
-  int matches = 0;              ///< matches kept (mutual best, ratio test, positive disparity range)
+  int matches = 0;              ///< matches kept (mutual best, ratio test, plausible offsets, not outliers)
+  int outliers = 0;             ///< matches dropped as mismatches: dy far from the median of the others
+  int negative_disparities = 0;  ///< kept matches with x_left < x_right (most of them: a swapped pair)
+  double median_dx = 0.0;       ///< median of the disparity x_left - x_right, pixels
   double median_dy = 0.0;       ///< median of (y_right - y_left), pixels
   double median_abs_dy = 0.0;   ///< median of |y_right - y_left|
   double p95_abs_dy = 0.0;      ///< 95th percentile of |y_right - y_left|

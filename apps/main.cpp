@@ -1,5 +1,5 @@
-// mctstereo: the command line. Subcommands match, stream, eval, bench and devices; every failure ends as one line
-// "mctstereo: error: ..." on stderr with exit status 2 (usage) or 1 (runtime).
+// mctstereo: the command line. Subcommands match, stream, eval, bench, devices and render; every failure
+// ends as one line "mctstereo: error: ..." on stderr with exit status 2 (usage) or 1 (runtime).
 #include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
 
@@ -12,6 +12,7 @@
 #include "errors.hpp"
 #include "eval.hpp"
 #include "match.hpp"
+#include "render.hpp"
 #include "stream.hpp"
 
 namespace {
@@ -38,13 +39,15 @@ int main(int argc, char** argv) {
   EvalCommand eval(app);
   BenchCommand bench(app);
   DevicesCommand devices(app);
+  RenderCommand render(app);
 
   // CLI11 would call a misspelt subcommand a stray argument; name it instead.
   if (argc > 1 && argv[1][0] != '-') {
     const std::string_view name = argv[1];
-    if (name != "match" && name != "stream" && name != "eval" && name != "bench" && name != "devices")
-      return fail(kExitUsage,
-                  std::string("unknown subcommand '") + argv[1] + "' (known: match, stream, eval, bench, devices)");
+    if (name != "match" && name != "stream" && name != "eval" && name != "bench" && name != "devices" &&
+        name != "render")
+      return fail(kExitUsage, std::string("unknown subcommand '") + argv[1] +
+                                  "' (known: match, stream, eval, bench, devices, render)");
   }
 
   try {
@@ -60,6 +63,7 @@ int main(int argc, char** argv) {
     if (eval.selected()) eval.run();
     if (bench.selected()) bench.run();
     if (devices.selected()) devices.run();
+    if (render.selected()) render.run();
     return 0;
   } catch (const UsageError& e) {
     return fail(kExitUsage, e.what());

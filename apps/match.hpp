@@ -3,9 +3,16 @@
 
 #include <CLI/CLI.hpp>
 
-#include <string>
+#include <opencv2/core.hpp>
 
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "calibration.hpp"
 #include "options.hpp"
+#include "output_files.hpp"
 
 namespace mctstereo::app {
 
@@ -21,11 +28,22 @@ class MatchCommand {
   void run() const;
 
  private:
+  // Adds the --depth, --ply and --obj files of the last frame to `outputs`; what it wrote, for the summary.
+  std::string write_depth_outputs(MapView<const std::int16_t> q4, std::int16_t invalid_q4, const cv::Mat& left,
+                                  const std::optional<Calibration>& calibration, PendingOutputs& outputs) const;
+
+  // One line on the vertical offsets of matched features between the views; `which` names the pair.
+  static std::string report_rectification(const cv::Mat& left, const cv::Mat& right, std::string_view which);
+
   CLI::App* command_;
   ParameterFlags parameters_;
   RunFlags run_flags_;
+  CalibrationFlags calibration_flags_;
   std::string left_, right_, output_, right_output_, preview_, format_;
+  std::string depth_output_, ply_output_, obj_output_;
+  double max_depth_ = 0.0;  // 0 = no cut
   int repeat_ = 1;
+  bool check_rectification_ = false;
 };
 
 }  // namespace mctstereo::app

@@ -19,13 +19,16 @@
 #include <filesystem>
 #include <functional>
 #include <iostream>
+#include <limits>
 #include <mutex>
 #include <optional>
 #include <set>
 #include <sstream>
 #include <thread>
+#include <tuple>
 #include <vector>
 
+#include "depth_files.hpp"
 #include "errors.hpp"
 #include "io.hpp"
 #include "output_files.hpp"
@@ -49,9 +52,14 @@ constexpr const char* kStreamFooter = R"(Inputs (one of):
   frame must have the size of the first.
 Outputs (per-frame patterns take the frame number, e.g. 'out/disp_%05d.png'):
   --disparity P   one disparity file per frame, as match -o: .pfm, or .png by --format
+  --depth P       one depth map per frame, as match --depth: .pfm (float, units of the baseline;
+                  relative depth 1/d without a calibration) or .png (16-bit, millimetres)
   --preview-video F   left frame and colour disparity side by side (turbo over the fixed range
                   [min, min + N - 1], black = invalid): .avi (MJPG), .mkv (FFV1, lossless), .mp4
   --show          the same preview in a window with the live frame rate (q or Esc stops)
+Calibration (--calib FILE, or --focal and --baseline): as match. A file of the raw cameras (K1 D1
+K2 D2 without "rectified: 1") has every frame rectified before matching, with maps computed once;
+the outputs are then in the rectified left frame.
 Capture, matching and writing run on their own threads. The summary line (stdout) gives the frames,
 the latency from a frame's capture to its outputs being written (mean, 95th percentile), the
 median matching time and the frame rate. Ctrl-C (SIGINT) or SIGTERM stops after the frames in
@@ -162,6 +170,9 @@ class StopSignals {
 struct FrameSlot {
   int index = 0;  // frame number in the input
   StereoFrame frame;
+  cv::Mat left_rectified, right_rectified;  // the frame rectified, when the calibration asks for it
+  const cv::Mat* left = nullptr;            // the views that are matched: the frame's or the rectified ones
+  const cv::Mat* right = nullptr;
   cv::Mat disparity_q4;  // CV_16SC1 copy of the matcher's map, which the next frame overwrites
   double matching_ms = 0.0;
   Clock::time_point captured;
@@ -306,7 +317,12 @@ StreamCommand::StreamCommand(CLI::App& parent)
                  "encoding of .png disparity files: kitti (256 x d, default) or q4 (16 x (d - min + 1)); pfm")
       ->check(CLI::IsMember({"kitti", "q4", "pfm"}))
       ->group(output_group);
-  app.add_option("--depth", depth_, "per-frame depth files, a printf pattern (needs a calibration)")
+  app.add_option("--depth", depth_,
+                 "per-frame depth maps, a printf pattern: .pfm (units of the baseline; 1/d without a calibration) "
+                 "or .png (16-bit, millimetres)")
+      ->group(output_group);
+  app.add_option("--max-depth", max_depth_, "leave out of --depth what lies deeper than Z (units of the baseline)")
+      ->check(positive_number())
       ->group(output_group);
   app.add_option("--preview-video", preview_video_,
                  "video of the left frame and the colour disparity side by side (.avi, .mkv, .mp4)")
@@ -314,6 +330,7 @@ StreamCommand::StreamCommand(CLI::App& parent)
   app.add_flag("--show", show_, "show the preview and the frame rate in a window when there is a display")
       ->group(output_group);
   app.add_flag("--quiet", quiet_, "no progress on stderr")->group(output_group);
+  calibration_flags_.add_to(app);
   run_flags_.add_to(app);
 }
 
@@ -331,8 +348,22 @@ void StreamCommand::run() const {
   } else if (!format_.empty()) {
     throw UsageError("--format " + format_ + " applies to --disparity files, and none were asked for");
   }
-  if (!depth_.empty())
-    throw UsageError("--depth needs a calibration, which this build of stream cannot take yet");
+  const bool calibrated = calibration_flags_.given();
+  DepthFormat depth_format = DepthFormat::Pfm;
+  if (!depth_.empty()) {
+    check_frame_pattern(depth_, "--depth");
+    depth_format = depth_format_for(depth_);
+    if (depth_format == DepthFormat::PngMillimetres && !calibrated)
+      throw UsageError("--depth " + in_quotes(depth_) +
+                       ": a PNG depth map holds millimetres and needs a calibration: give --calib FILE or --focal and "
+                       "--baseline (or write relative depth 1/d to .pfm files)");
+  }
+  if (max_depth_ > 0.0) {
+    if (depth_.empty()) throw UsageError("--max-depth cuts --depth, which was not given");
+    if (!calibrated)
+      throw UsageError("--max-depth is in the units of the baseline and needs a calibration: give --calib FILE or "
+                       "--focal and --baseline");
+  }
   int fourcc = 0;
   if (!preview_video_.empty()) fourcc = preview_fourcc(preview_video_);
   check_distinct_outputs({{"--disparity", disparity_}, {"--depth", depth_}, {"--preview-video", preview_video_}});
@@ -353,16 +384,18 @@ void StreamCommand::run() const {
   // and again as each frame is written. A per-frame file is renamed into place, which replaces a
   // name and leaves a file of other names (a hard link) as it was, so comparing canonical names
   // suffices; the preview video is written in place and so is compared by file.
-  const std::vector<std::string> inputs = source->input_files();
+  std::vector<std::string> inputs = source->input_files();
+  if (!calibration_flags_.file().empty()) inputs.push_back(calibration_flags_.file());
   const InputNames input_names(inputs);
   const int first_index = source->position();
-  if (!disparity_.empty()) {
-    check_output_path(frame_path(disparity_, first_index), {}, "disparity output");
-    const int count = source->frame_count();
-    const int last = max_frames_ > 0 && (count < 0 || first_index + max_frames_ < count) ? first_index + max_frames_
-                                                                                          : count;
-    for (int index = first_index; index < last; ++index)
-      input_names.check(frame_path(disparity_, index), "--disparity", disparity_);
+  const int count = source->frame_count();
+  const int last = max_frames_ > 0 && (count < 0 || first_index + max_frames_ < count) ? first_index + max_frames_
+                                                                                        : count;
+  for (const auto& [flag, pattern, what] : {std::tuple{"--disparity", &disparity_, "disparity output"},
+                                            std::tuple{"--depth", &depth_, "depth output"}}) {
+    if (pattern->empty()) continue;
+    check_output_path(frame_path(*pattern, first_index), {}, what);
+    for (int index = first_index; index < last; ++index) input_names.check(frame_path(*pattern, index), flag, *pattern);
   }
   if (!preview_video_.empty()) check_output_path(preview_video_, inputs, "preview video");
 
@@ -375,6 +408,23 @@ void StreamCommand::run() const {
   first.index = first_index;
   const int width = first.frame.left.cols, height = first.frame.left.rows;
   check_parameters(requested, width, height);
+  // A calibration of the raw cameras: every frame is remapped into the rectified frame, with maps
+  // made once, and the geometry becomes that of the rectified cameras.
+  std::optional<Calibration> calibration =
+      calibration_flags_.resolve(width, height, "frame " + std::to_string(first_index) + " (" +
+                                                    source->describe(first_index) + ")");
+  std::optional<Rectifier> rectifier;
+  std::string rectified_note;
+  if (calibration && calibration->needs_rectification) {
+    rectifier.emplace(*calibration, width, height);
+    calibration->geometry = rectifier->geometry();
+    rectified_note = ", rectified with " + in_quotes(calibration->source);
+  }
+  if (calibration && !depth_.empty() && depth_format == DepthFormat::PngMillimetres)
+    (void)millimetres_per_unit(calibration->geometry.units);  // a unit a PNG of millimetres cannot convert
+  if (!depth_.empty() && !calibration)
+    std::cerr << "mctstereo: note: no calibration: " << in_quotes(depth_)
+              << " holds relative depth 1/d; give --calib FILE or --focal and --baseline for depth in units\n";
   Matcher matcher = run_flags_.make_matcher(width, height, requested);
   const StereoParams& params = matcher.params();
   const std::int16_t invalid = matcher.invalid_q4();
@@ -406,8 +456,21 @@ void StreamCommand::run() const {
   std::string end_reason;  // written by the capture thread before it closes to_match
   const int max_frames = max_frames_;
 
+  // The views of a slot that are matched, rectified first when the calibration asks for it.
+  auto prepare = [&](FrameSlot& slot) {
+    if (rectifier) {
+      rectifier->rectify(slot.frame.left, slot.frame.right, slot.left_rectified, slot.right_rectified);
+      slot.left = &slot.left_rectified;
+      slot.right = &slot.right_rectified;
+    } else {
+      slot.left = &slot.frame.left;
+      slot.right = &slot.frame.right;
+    }
+  };
+
   auto capture = [&] {
     try {
+      prepare(first);
       first.captured = Clock::now();
       int frames = 1;
       if (to_match.push(&first)) {
@@ -437,6 +500,7 @@ void StreamCommand::run() const {
             throw RuntimeError("frame " + std::to_string(index) + " (" + source->describe(index) + ") is " +
                                size_text(left.cols, left.rows) + " but the stream began at " +
                                size_text(width, height) + ": every frame must have the size of the first");
+          prepare(**slot);
           (*slot)->index = index;
           (*slot)->captured = Clock::now();
           ++frames;
@@ -453,7 +517,7 @@ void StreamCommand::run() const {
     try {
       while (const std::optional<FrameSlot*> slot = to_match.pop()) {
         if (aborted.load()) break;
-        matcher.compute(image_view((*slot)->frame.left), image_view((*slot)->frame.right));
+        matcher.compute(image_view(*(*slot)->left), image_view(*(*slot)->right));
         copy_map(matcher.disparity_q4(), (*slot)->disparity_q4);
         (*slot)->matching_ms = matcher.timings().back().ms;
         if (!to_write.push(*slot)) break;
@@ -472,6 +536,10 @@ void StreamCommand::run() const {
   Progress progress(!quiet_ && !show);
   cv::Mat preview, colour;
   if (preview_video.isOpened() || show) preview.create(height, 2 * width, CV_8UC3);
+  cv::Mat depth;
+  if (!depth_.empty()) depth.create(height, width, CV_32FC1);
+  const MapView<float> depth_view{depth.ptr<float>(), width, height, width};
+  const double max_depth = max_depth_ > 0.0 ? max_depth_ : std::numeric_limits<double>::infinity();
   Clock::time_point started;
   {
     // Joined before anything they use goes away, whatever happens here.
@@ -497,17 +565,26 @@ void StreamCommand::run() const {
       while (const std::optional<FrameSlot*> slot = to_write.pop()) {
         FrameSlot& s = **slot;
         const MapView<const std::int16_t> q4 = map_view(s.disparity_q4);
+        // The files of a frame appear together.
+        PendingOutputs outputs;
         if (format) {
           const std::string path = frame_path(disparity_, s.index);
           input_names.check(path, "--disparity", disparity_);
-          PendingOutputs outputs;
           outputs.add(path, encode_disparity(q4, invalid, params.min_disparity, *format));
-          outputs.commit();
         }
+        if (!depth_.empty()) {
+          const std::string path = frame_path(depth_, s.index);
+          input_names.check(path, "--depth", depth_);
+          if (calibration) depth_from_disparity(q4, invalid, calibration->geometry, depth_view, max_depth);
+          else relative_depth_from_disparity(q4, invalid, depth_view);
+          outputs.add(path, encode_depth(MapView<const float>{depth_view.data, width, height, width},
+                                         calibration ? calibration->geometry.units : "", depth_format));
+        }
+        outputs.commit();
         if (!preview.empty()) {
           cv::Mat left_half = preview.colRange(0, width), right_half = preview.colRange(width, 2 * width);
-          if (s.frame.left.channels() == 1) cv::cvtColor(s.frame.left, left_half, cv::COLOR_GRAY2BGR);
-          else s.frame.left.copyTo(left_half);
+          if (s.left->channels() == 1) cv::cvtColor(*s.left, left_half, cv::COLOR_GRAY2BGR);
+          else s.left->copyTo(left_half);
           render_preview(q4, invalid, params.min_disparity, params.max_disparity(), colour);
           colour.copyTo(right_half);
           if (preview_video.isOpened()) preview_video.write(preview);
@@ -543,13 +620,19 @@ void StreamCommand::run() const {
   if (format)
     wrote += "; wrote " + std::to_string(frames_written) + " disparity files " + in_quotes(disparity_) + " (" +
              describe_format(*format, params.min_disparity) + ")";
+  if (!depth_.empty())
+    wrote += (wrote.empty() ? "; wrote " : ", ") + std::to_string(frames_written) + " depth files " +
+             in_quotes(depth_) +
+             (!calibration ? " (relative depth 1/d PFM, +INF = none)"
+              : depth_format == DepthFormat::Pfm ? " (depth PFM, " + calibration->geometry.units + ", +INF = none)"
+                                                 : std::string(" (depth 16-bit PNG, mm, 0 = none)"));
   if (!preview_video_.empty())
     wrote += (wrote.empty() ? "; wrote " : ", ") + std::string("preview video ") + in_quotes(preview_video_) +
              " (left frame | disparity)";
   const std::string where = matcher.backend() == Backend::OpenCL ? ", device " + matcher.device_name() : "";
   std::cout << frames_written << " frames " << size_text(width, height) << " from " << source->kind()
             << ", disparities " << params.min_disparity << ".." << params.max_disparity() << " ("
-            << params.num_disparities << "), preset " << parameters_.preset_name() << ", backend "
+            << params.num_disparities << "), preset " << parameters_.preset_name() << rectified_note << ", backend "
             << to_string(matcher.backend()) << where << "; latency ms: mean " << fixed(latency_ms.mean(), 2)
             << " p95 " << fixed(percentile(latency_ms.values(), 95.0), 2) << "; matching ms: median "
             << fixed(median(matching_ms.values()), 2) << "; "

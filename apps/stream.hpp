@@ -5,6 +5,7 @@
 
 #include <string>
 
+#include "calibration.hpp"
 #include "frame_source.hpp"
 #include "options.hpp"
 
@@ -26,9 +27,11 @@ class StreamCommand {
   CLI::App* command_;
   ParameterFlags parameters_;
   RunFlags run_flags_;
+  CalibrationFlags calibration_flags_;
   StereoInputSpec input_;
   int start_ = 0, max_frames_ = 0;
   std::string disparity_, format_, depth_, preview_video_;
+  double max_depth_ = 0.0;  // 0 = no cut
   bool show_ = false, quiet_ = false;
 };
 

@@ -41,8 +41,9 @@ inline constexpr float kNoDepth = std::numeric_limits<float>::quiet_NaN();
 
 /// Depth of every pixel of a Q4 disparity map (16 x d, `invalid_q4` where invalid), in the units of
 /// the baseline. kNoDepth where the disparity is invalid, where d + doffs <= 0 (a point at infinity
-/// or behind the camera) and where the depth exceeds `max_depth`. `depth` must have the map's size;
-/// std::invalid_argument otherwise. Allocates nothing.
+/// or behind the camera) and where the depth exceeds `max_depth`. `depth` must have the map's size.
+/// std::invalid_argument for another size, an invalid geometry or a max_depth that is not positive.
+/// Allocates nothing.
 void depth_from_disparity(MapView<const std::int16_t> q4, std::int16_t invalid_q4, const StereoGeometry& geometry,
                           MapView<float> depth, double max_depth = std::numeric_limits<double>::infinity());
 
@@ -59,7 +60,7 @@ struct PointCloud {
   std::vector<float> xyz;           ///< X, Y, Z of each point, in `units`
   std::vector<std::uint8_t> rgb;    ///< R, G, B of each point; empty for a cloud without colours
   std::vector<std::int32_t> pixel;  ///< y * width + x of the left pixel each point comes from
-  std::string units = "m";
+  std::string units = "m";          ///< the geometry's units (point_cloud_from_disparity sets it)
 
   std::size_t size() const { return pixel.size(); }
   bool has_colours() const { return !rgb.empty(); }
@@ -70,7 +71,8 @@ struct PointCloud {
 /// Back-projects every valid pixel of a Q4 disparity map that has a depth (as depth_from_disparity,
 /// with `max_depth`) into `cloud`, replacing what it held. `colours` is the left image the map was
 /// computed from (Gray8, Rgb8 or Bgr8, the map's size), or a view with null data for a cloud without
-/// colours. std::invalid_argument when sizes differ or the geometry is invalid.
+/// colours. std::invalid_argument when sizes differ, the geometry is invalid or max_depth is not
+/// positive. Allocates only while the cloud grows beyond what it held before.
 void point_cloud_from_disparity(MapView<const std::int16_t> q4, std::int16_t invalid_q4,
                                 const StereoGeometry& geometry, const ImageView& colours, PointCloud& cloud,
                                 double max_depth = std::numeric_limits<double>::infinity());

@@ -50,8 +50,9 @@ struct StageTime {
 /// Dense stereo matcher on the (modified) census transform with multi-resolution search.
 ///
 /// The constructor validates the parameters (std::invalid_argument with the message of
-/// StereoParams::validate) and allocates every buffer; compute() allocates nothing on the
-/// reference and cpu backends, and no device memory on the opencl backend.
+/// StereoParams::validate) and allocates every buffer; compute() allocates nothing. On the
+/// opencl backend that holds for the library's own host and device memory; what an OpenCL driver
+/// does inside its calls is the driver's (PoCL allocates nothing through operator new there).
 /// Not thread-safe: use one matcher per thread of the caller.
 ///
 /// Backend::OpenCL opens the device of MatcherOptions::device, allocates every device buffer and

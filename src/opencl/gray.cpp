@@ -8,15 +8,20 @@ namespace mctstereo::detail::opencl {
 
 namespace {
 
-// Work-groups of 16 x 4 work-items, each work-item 16 pixels of a row: a fixed size, so that
-// drivers that compile per work-group size (PoCL) compile each program once; the kernels skip the
-// work-items past the plane.
-cl::NDRange global_for(int chunks, int rows) { return cl::NDRange((chunks + 15) / 16 * 16, (rows + 3) / 4 * 4); }
-const cl::NDRange kLocal(16, 4);
+// The weights of the bytes of a pixel in memory order; they sum to 256.
+const char* gray_options(PixelFormat format) {
+  if (format == PixelFormat::Rgb8) return "-DBYTES_PER_PIXEL=3 -DWEIGHT_0=77 -DWEIGHT_1=150 -DWEIGHT_2=29";
+  if (format == PixelFormat::Bgr8) return "-DBYTES_PER_PIXEL=3 -DWEIGHT_0=29 -DWEIGHT_1=150 -DWEIGHT_2=77";
+  return "-DBYTES_PER_PIXEL=1";
+}
 
 }  // namespace
 
-void to_gray(Runtime& rt, const DeviceImage& src, DevicePlane<std::uint8_t>& dst) {
+ToGray::ToGray(Runtime& rt, PixelFormat format)
+    : StageKernel(rt, "gray", "to_gray", gray_options(format)), format_(format) {}
+
+void ToGray::run(const DeviceImage& src, DevicePlane<std::uint8_t>& dst) {
+  if (src.format != format_) throw std::invalid_argument("to_gray: the image is not in the stage's pixel format");
   if (dst.width != src.width || dst.height != src.height)
     throw std::invalid_argument("to_gray: the luma plane is " + std::to_string(dst.width) + " x " +
                                 std::to_string(dst.height) + ", the image " + std::to_string(src.width) + " x " +
@@ -25,18 +30,12 @@ void to_gray(Runtime& rt, const DeviceImage& src, DevicePlane<std::uint8_t>& dst
     throw std::invalid_argument("to_gray: image stride " + std::to_string(src.stride) + " does not fit its width " +
                                 std::to_string(src.width));
   if (src.width == 0 || src.height == 0) return;
-  // The weights of the bytes of a pixel in memory order; they sum to 256.
-  const char* options = "-DBYTES_PER_PIXEL=1";
-  if (src.format == PixelFormat::Rgb8) options = "-DBYTES_PER_PIXEL=3 -DWEIGHT_0=77 -DWEIGHT_1=150 -DWEIGHT_2=29";
-  if (src.format == PixelFormat::Bgr8) options = "-DBYTES_PER_PIXEL=3 -DWEIGHT_0=29 -DWEIGHT_1=150 -DWEIGHT_2=77";
-  cl::Kernel kernel = rt.kernel("gray", "to_gray", options);
-  kernel.setArg(0, src.bytes);
-  kernel.setArg(1, static_cast<cl_uint>(src.stride));
-  kernel.setArg(2, src.width);
-  kernel.setArg(3, src.height);
-  kernel.setArg(4, dst.buffer);
-  kernel.setArg(5, dst.stride);
-  rt.run(kernel, global_for((src.width + 15) / 16, src.height), kLocal, "gray");
+  set_args(src.bytes, static_cast<cl_uint>(src.stride), src.width, src.height, dst.buffer, dst.stride);
+  enqueue_chunks(src.width, src.height, "gray");
+}
+
+void to_gray(Runtime& rt, const DeviceImage& src, DevicePlane<std::uint8_t>& dst) {
+  ToGray(rt, src.format).run(src, dst);
 }
 
 }  // namespace mctstereo::detail::opencl

@@ -36,22 +36,34 @@ std::size_t round_up(std::size_t n, std::size_t multiple) { return (n + multiple
 
 std::string size_text(int w, int h) { return std::to_string(w) + " x " + std::to_string(h); }
 
-}  // namespace
-
-// match() with the layout of a GPU (gpu_layout) or of a CPU device, whatever the device is;
-// tests/opencl/match_test.cpp declares it too, to test both layouts on any device.
-void match_with_layout(Runtime& rt, const DeviceCodes& ref, const DeviceCodes& other,
-                       const DevicePlane<std::int16_t>* prior, int dmin, int dmax, int radius,
-                       const MatchConfig& config, Popcount popcount, bool gpu_layout,
-                       DevicePlane<std::int16_t>& disparity) {
+std::string match_options(int code_words, const MatchConfig& config, Popcount popcount, const Layout& layout) {
   const int a = config.shd_window;
   if (a < 1 || a > 9 || a % 2 == 0)
     throw std::invalid_argument("match: SHD window " + std::to_string(a) + " is not 1, 3, 5, 7 or 9");
-  if (config.dir != -1 && config.dir != 1)
-    throw std::invalid_argument("match: dir " + std::to_string(config.dir) + " is not -1 or +1");
-  if (ref.words < 1 || ref.words > 3 || other.words != ref.words)
+  if (code_words < 1 || code_words > 3)
+    throw std::invalid_argument("match: census codes of " + std::to_string(code_words) + " words");
+  return "-DSHD_A=" + std::to_string(a) + " -DCODE_WORDS=" + std::to_string(code_words) +
+         " -DSUBPIXEL=" + (config.subpixel ? "1" : "0") + " -DUNIQUENESS=" + (config.uniqueness_ratio > 0 ? "1" : "0") +
+         " -DPOPCOUNT_SWAR=" + (popcount == Popcount::Swar ? "1" : "0") + " -DROWS=" + std::to_string(layout.rows) +
+         " -DFULL_UNROLL=" + (layout.unroll ? "1" : "0");
+}
+
+}  // namespace
+
+Match::Match(Runtime& rt, int code_words, const MatchConfig& config, Popcount popcount, bool gpu_layout)
+    : StageKernel(rt, "match", "match", match_options(code_words, config, popcount, layout_for(gpu_layout))),
+      code_words_(code_words),
+      config_(config),
+      rows_(layout_for(gpu_layout).rows),
+      local_(layout_for(gpu_layout).local) {}
+
+void Match::run(const DeviceCodes& ref, const DeviceCodes& other, const DevicePlane<std::int16_t>* prior, int dmin,
+                int dmax, int radius, int dir, DevicePlane<std::int16_t>& disparity) {
+  if (dir != -1 && dir != 1) throw std::invalid_argument("match: dir " + std::to_string(dir) + " is not -1 or +1");
+  if (ref.words != code_words_ || other.words != code_words_)
     throw std::invalid_argument("match: census codes of " + std::to_string(ref.words) + " and " +
-                                std::to_string(other.words) + " words");
+                                std::to_string(other.words) + " words for a kernel of " +
+                                std::to_string(code_words_));
   const int w = ref.plane[0].width, h = ref.plane[0].height;
   // The kernel addresses every code plane with the stride of the first.
   for (const DeviceCodes* codes : {&ref, &other})
@@ -68,39 +80,30 @@ void match_with_layout(Runtime& rt, const DeviceCodes& ref, const DeviceCodes& o
     throw std::invalid_argument("match: empty prior " + size_text(prior->width, prior->height));
   if (w == 0 || h == 0) return;
 
-  const Layout layout = layout_for(gpu_layout);
-  const std::string options = "-DSHD_A=" + std::to_string(a) + " -DCODE_WORDS=" + std::to_string(ref.words) +
-                              " -DSUBPIXEL=" + (config.subpixel ? "1" : "0") +
-                              " -DUNIQUENESS=" + (config.uniqueness_ratio > 0 ? "1" : "0") +
-                              " -DPOPCOUNT_SWAR=" + (popcount == Popcount::Swar ? "1" : "0") +
-                              " -DROWS=" + std::to_string(layout.rows) +
-                              " -DFULL_UNROLL=" + (layout.unroll ? "1" : "0");
-  cl::Kernel kernel = rt.kernel("match", "match", options);
-  int arg = 0;
   // Planes beyond `words` are never read; the first stands in for them.
-  for (const DeviceCodes* codes : {&ref, &other})
-    for (int k = 0; k < 3; ++k) kernel.setArg(arg++, codes->plane[k < codes->words ? k : 0].buffer);
-  kernel.setArg(arg++, ref.plane[0].stride);
-  kernel.setArg(arg++, w);
-  kernel.setArg(arg++, h);
+  const auto word = [](const DeviceCodes& codes, int k) -> const cl::Buffer& {
+    return codes.plane[k < codes.words ? k : 0].buffer;
+  };
+  set_args(word(ref, 0), word(ref, 1), word(ref, 2), word(other, 0), word(other, 1), word(other, 2),
+           ref.plane[0].stride, w, h);
+  // Without a prior, a null pointer: the whole range everywhere.
   if (prior != nullptr)
-    kernel.setArg(arg++, prior->buffer);
+    set_args_from(9, prior->buffer, prior->stride, prior->width, prior->height);
   else
-    kernel.setArg(arg++, sizeof(cl_mem), nullptr);  // a null pointer: the whole range everywhere
-  kernel.setArg(arg++, prior != nullptr ? prior->stride : 0);
-  kernel.setArg(arg++, prior != nullptr ? prior->width : 0);
-  kernel.setArg(arg++, prior != nullptr ? prior->height : 0);
-  kernel.setArg(arg++, dmin);
-  kernel.setArg(arg++, dmax);
-  kernel.setArg(arg++, radius);
-  kernel.setArg(arg++, config.dir);
-  kernel.setArg(arg++, config.uniqueness_ratio);
-  kernel.setArg(arg++, disparity.buffer);
-  kernel.setArg(arg++, disparity.stride);
-  // One work-item per 16 columns x `rows` rows; the kernel skips work-items beyond the image.
-  const std::size_t strips_x = (w + 15) / 16, strips_y = (h + layout.rows - 1) / layout.rows;
-  rt.run(kernel, cl::NDRange(round_up(strips_x, layout.local[0]), round_up(strips_y, layout.local[1])), layout.local,
-         "match");
+    set_args_from(9, NoBuffer{}, 0, 0, 0);
+  set_args_from(13, dmin, dmax, radius, dir, config_.uniqueness_ratio, disparity.buffer, disparity.stride);
+  // One work-item per 16 columns x `rows_` rows; the kernel skips work-items beyond the image.
+  const std::size_t strips_x = (w + 15) / 16, strips_y = (h + rows_ - 1) / rows_;
+  enqueue(cl::NDRange(round_up(strips_x, local_[0]), round_up(strips_y, local_[1])), local_, "match");
+}
+
+// match() with the layout of a GPU (gpu_layout) or of a CPU device, whatever the device is;
+// tests/opencl/match_test.cpp declares it too, to test both layouts on any device.
+void match_with_layout(Runtime& rt, const DeviceCodes& ref, const DeviceCodes& other,
+                       const DevicePlane<std::int16_t>* prior, int dmin, int dmax, int radius,
+                       const MatchConfig& config, Popcount popcount, bool gpu_layout,
+                       DevicePlane<std::int16_t>& disparity) {
+  Match(rt, ref.words, config, popcount, gpu_layout).run(ref, other, prior, dmin, dmax, radius, config.dir, disparity);
 }
 
 void match(Runtime& rt, const DeviceCodes& ref, const DeviceCodes& other, const DevicePlane<std::int16_t>* prior,

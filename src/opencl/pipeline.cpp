@@ -2,13 +2,15 @@
 // device planes: upload, gray, working-scale reductions and pyramid, then per level coarse to fine
 // census, match and refinement, then upscale, output conversion and download. Every stage
 // enqueues on the runtime's in-order queue without waiting; the host waits only for speckle
-// removal (which runs on the host) and for the download of the results.
+// removal (which runs on the host) and for the download of the results. The stages are made
+// (their kernels created) in the constructor: a frame allocates nothing on the host.
 #include "opencl/pipeline.hpp"
 
 #include <algorithm>
 #include <array>
 #include <chrono>
 #include <map>
+#include <optional>
 #include <stdexcept>
 #include <utility>
 
@@ -109,7 +111,38 @@ struct Pipeline::Level {
   DevicePlane<std::uint8_t> image[2];
   DeviceCodes codes[2];
   DevicePlane<std::int16_t> disparity[2], scratch[2];
-  Plane<std::int16_t> host;  // the map on its way through speckle removal
+  Plane<std::int16_t> host;     // the map on its way through speckle removal
+  std::optional<Match> match;   // this level's SHD window, sub-pixel at the finest only
+};
+
+// The other stages the parameters use, one object per kernel; those they do not use stay empty.
+struct Pipeline::Stages {
+  ToGray gray_rgb, gray_bgr;  // gray input needs no conversion
+  PyramidDown pyramid;
+  CensusTransform census;
+  std::optional<MedianFilter> median, post_median;
+  std::optional<LrCheck> lr_check[2];  // the check of the left view's map, then the right's
+  FillInvalid fill;
+  std::optional<Upscale> upscale;
+  std::optional<ToOutput> output;  // the right view's, without the float map
+  ToOutput output_with_float;
+
+  // check_right: some level checks the right view's map too.
+  Stages(Runtime& rt, const StereoParams& p, bool check_right, bool compute_right)
+      : gray_rgb(rt, PixelFormat::Rgb8),
+        gray_bgr(rt, PixelFormat::Bgr8),
+        pyramid(rt),
+        census(rt, {p.census, p.census_window, p.mct_kernel}),
+        fill(rt, p.fill),
+        output_with_float(rt, true) {
+    if (p.median_size > 0) median.emplace(rt, p.median_size);
+    if (p.post_median_size > 0) post_median.emplace(rt, p.post_median_size);
+    if (p.lr_check) lr_check[0].emplace(rt, -1);
+    if (p.lr_check && check_right) lr_check[1].emplace(rt, +1);
+    if (p.working_scale > 1) upscale.emplace(rt, p.working_scale);
+    if (compute_right) output.emplace(rt, false);
+  }
+  ToGray& to_gray(PixelFormat format) { return format == PixelFormat::Rgb8 ? gray_rgb : gray_bgr; }
 };
 
 Pipeline::Pipeline(const DeviceInfo& device, int width, int height, const StereoParams& params,
@@ -126,6 +159,14 @@ Pipeline::Pipeline(const DeviceInfo& device, int width, int height, const Stereo
   std::lock_guard<std::mutex> lock(*frame_mutex_);
   try {
     allocate();
+    // The right view's map is checked at the finest level only when it is an output, and at the
+    // others when they are refined.
+    const bool check_right = options.compute_right || (params.refine_all_levels && params.pyramid_levels > 1);
+    stages_ = std::make_unique<Stages>(*rt_, params, check_right, options.compute_right);
+    for (int l = 0; l < params.pyramid_levels; ++l) {
+      const MatchConfig config{-1, levels_[l].shd_window, params.subpixel && l == 0, params.uniqueness_ratio};
+      levels_[l].match.emplace(*rt_, census_words(params.census_window), config, popcount_, rt_->device().gpu);
+    }
     // Buffers are allocated lazily by most drivers: a sum beyond the device is caught here, with
     // the numbers, rather than as an allocation failure in some kernel of the first frame.
     const std::uint64_t have = rt_->device().global_memory;
@@ -133,16 +174,16 @@ Pipeline::Pipeline(const DeviceInfo& device, int width, int height, const Stereo
       throw std::runtime_error("the opencl backend needs " + mib(device_bytes_) + " of device memory for " +
                                std::to_string(width) + "x" + std::to_string(height) + " images; OpenCL device " +
                                rt_->device().name + " has " + mib(have));
-    // A blank frame builds every kernel this configuration uses (the runtime keeps the programs),
-    // colour conversion of both byte orders included, and touches every buffer once (drivers
-    // commit memory on first use), so that the first frame is timed like any other.
+    // A blank frame, colour conversion of both byte orders included, touches every buffer once
+    // (drivers commit memory on first use) and runs every kernel once (PoCL compiles a kernel's
+    // work-group function when it is first enqueued).
     const std::vector<std::uint8_t> zeros(input_[0].width * std::size_t{3} * input_[0].height, 0);
     for (int v = 0; v < 2; ++v) {
       rt_->queue().enqueueWriteBuffer(input_[v].bytes, CL_TRUE, 0, zeros.size(), zeros.data());
       for (PixelFormat format : {PixelFormat::Rgb8, PixelFormat::Bgr8}) {
         input_[v].format = format;
         input_[v].stride = static_cast<std::size_t>(width_) * 3;
-        to_gray(*rt_, input_[v], full_gray_[v][0]);
+        stages_->to_gray(format).run(input_[v], full_gray_[v][0]);
       }
     }
     rt_->reset_times();
@@ -244,29 +285,27 @@ void Pipeline::upload_input(const ImageView& image, int v) {
   in.stride = row_bytes;
   rt_->queue().enqueueWriteBufferRect(in.bytes, CL_TRUE, origin, origin, region, in.stride, 0, host_pitch, 0,
                                       image.data);
-  to_gray(*rt_, in, full_gray_[v][0]);
+  stages_->to_gray(in.format).run(in, full_gray_[v][0]);
 }
 
 void Pipeline::run_levels() {
   const int views = need_right_ ? 2 : 1;
   for (int v = 0; v < 2; ++v) {
-    for (std::size_t s = 1; s < full_gray_[v].size(); ++s) pyramid_down(*rt_, full_gray_[v][s - 1], full_gray_[v][s]);
+    for (std::size_t s = 1; s < full_gray_[v].size(); ++s) stages_->pyramid.run(full_gray_[v][s - 1], full_gray_[v][s]);
     for (std::size_t l = 1; l < levels_.size(); ++l)
-      pyramid_down(*rt_, level_image(static_cast<int>(l) - 1, v), levels_[l].image[v]);
+      stages_->pyramid.run(level_image(static_cast<int>(l) - 1, v), levels_[l].image[v]);
   }
 
-  const CensusConfig census{params_.census, params_.census_window, params_.mct_kernel};
   for (int l = static_cast<int>(levels_.size()) - 1; l >= 0; --l) {
     Level& L = levels_[l];
-    for (int v = 0; v < 2; ++v) census_transform(*rt_, level_image(l, v), census, L.codes[v]);
+    for (int v = 0; v < 2; ++v) stages_->census.run(level_image(l, v), L.codes[v]);
 
     const bool coarsest = l + 1 == static_cast<int>(levels_.size());
     for (int v = 0; v < views; ++v) {
       // Each view searches around the coarser level's map of the same view.
       const DevicePlane<std::int16_t>* prior = coarsest ? nullptr : &levels_[l + 1].disparity[v];
-      const MatchConfig config{v == 0 ? -1 : +1, L.shd_window, params_.subpixel && l == 0, params_.uniqueness_ratio};
-      match(*rt_, L.codes[v], L.codes[1 - v], prior, L.dmin, L.dmax, params_.search_radius, config, popcount_,
-            L.disparity[v]);
+      L.match->run(L.codes[v], L.codes[1 - v], prior, L.dmin, L.dmax, params_.search_radius, v == 0 ? -1 : +1,
+                   L.disparity[v]);
     }
     if (L.refine) refine(L, l == 0);
   }
@@ -279,22 +318,22 @@ void Pipeline::refine(Level& L, bool finest) {
   const int kept = finest && !options_.compute_right ? 1 : views;
   if (params_.median_size > 0) {
     for (int v = 0; v < views; ++v) {
-      median_filter(*rt_, L.disparity[v], params_.median_size, L.scratch[v]);
+      stages_->median->run(L.disparity[v], L.scratch[v]);
       std::swap(L.disparity[v], L.scratch[v]);
     }
   }
   if (params_.lr_check) {
     // Both checks read the maps as they were before either was checked.
     for (int v = 0; v < kept; ++v)
-      lr_check(*rt_, L.disparity[v], L.disparity[1 - v], v == 0 ? -1 : +1, 16 * params_.lr_threshold, L.scratch[v]);
+      stages_->lr_check[v]->run(L.disparity[v], L.disparity[1 - v], 16 * params_.lr_threshold, L.scratch[v]);
     for (int v = 0; v < kept; ++v) std::swap(L.disparity[v], L.scratch[v]);
   }
   if (L.speckle > 1)
     for (int v = 0; v < kept; ++v) remove_speckles_on_host(L, v, L.speckle);
-  for (int v = 0; v < kept; ++v) fill_invalid(*rt_, L.disparity[v], params_.fill);
+  for (int v = 0; v < kept; ++v) stages_->fill.run(L.disparity[v]);
   if (params_.post_median_size > 0) {
     for (int v = 0; v < kept; ++v) {
-      median_filter(*rt_, L.disparity[v], params_.post_median_size, L.scratch[v]);
+      stages_->post_median->run(L.disparity[v], L.scratch[v]);
       std::swap(L.disparity[v], L.scratch[v]);
     }
   }
@@ -319,11 +358,12 @@ void Pipeline::write_outputs() {
   for (int v = 0; v < (options_.compute_right ? 2 : 1); ++v) {
     const DevicePlane<std::int16_t>* result = &levels_[0].disparity[v];
     if (scale > 1) {
-      upscale(*rt_, *result, scale, 16 * params_.min_disparity, 16 * params_.max_disparity(), upscaled_[v]);
+      stages_->upscale->run(*result, 16 * params_.min_disparity, 16 * params_.max_disparity(), upscaled_[v]);
       result = &upscaled_[v];
     }
     // The float map exists for the left view only, as the Matcher's disparity().
-    to_output(*rt_, *result, invalid_q4_, out_q4_[v], v == 0 ? &out_float_ : nullptr);
+    if (v == 0) stages_->output_with_float.run(*result, invalid_q4_, out_q4_[v], &out_float_);
+    else stages_->output->run(*result, invalid_q4_, out_q4_[v], nullptr);
   }
 }
 
@@ -359,7 +399,7 @@ void Pipeline::compute(const ImageView& left, const ImageView& right, Plane<std:
   add("upload", upload_ms);
   add("speckle", speckle_ms_);
   add("download", download_ms);
-  for (const auto& [label, ms] : rt_->kernel_times()) add(label, ms);
+  rt_->for_each_kernel_time(add);
   timings_.back().ms = frame_ms;
 }
 

@@ -19,10 +19,11 @@ std::vector<OpenclDevice> describe_devices();
 class Pipeline {
  public:
   /// Opens `device` (its runtime is shared with every other pipeline on it), allocates every
-  /// device buffer for width x height, and runs one frame on a blank pair, so that the kernels
-  /// are built (or their build log thrown) here and not in the first compute(). The parameters
-  /// are valid (the Matcher checked them). std::runtime_error naming the device when the memory
-  /// does not suffice or a kernel does not build.
+  /// device buffer for width x height, makes every stage the parameters use (building their
+  /// kernels, or throwing the build log) and runs one frame on a blank pair, so that compute()
+  /// only sets kernel arguments and enqueues, and the first frame is timed like any other. The
+  /// parameters are valid (the Matcher checked them). std::runtime_error naming the device when
+  /// the memory does not suffice or a kernel does not build.
   Pipeline(const DeviceInfo& device, int width, int height, const StereoParams& params,
            const MatcherOptions& options);
   ~Pipeline();
@@ -46,6 +47,7 @@ class Pipeline {
 
  private:
   struct Level;
+  struct Stages;
   void allocate();
   const DevicePlane<std::uint8_t>& level_image(int l, int v) const;
   void upload_input(const ImageView& image, int view);
@@ -69,6 +71,7 @@ class Pipeline {
   DeviceImage input_[2];                               // colour input as the caller's bytes, packed rows
   std::vector<DevicePlane<std::uint8_t>> full_gray_[2];  // input size, then each working-scale reduction
   std::vector<Level> levels_;                            // levels_[0] is the finest (working scale)
+  std::unique_ptr<Stages> stages_;                       // made once; matching's are the levels' own
   DevicePlane<std::int16_t> upscaled_[2], out_q4_[2];
   DevicePlane<float> out_float_;
   SpeckleScratch speckle_scratch_;  // speckle removal runs on the host

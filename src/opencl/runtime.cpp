@@ -191,17 +191,19 @@ void Runtime::run(const cl::Kernel& kernel, const cl::NDRange& global, const cl:
 }
 
 std::vector<std::pair<std::string, double>> Runtime::kernel_times() {
-  queue_.finish();
   std::vector<std::pair<std::string, double>> times;
-  for (const auto& [label, event] : events_) {
-    const auto start = event.getProfilingInfo<CL_PROFILING_COMMAND_START>();
-    const auto end = event.getProfilingInfo<CL_PROFILING_COMMAND_END>();
-    const double ms = static_cast<double>(end - start) * 1e-6;
+  for_each_kernel_time([&](const char* label, double ms) {
     auto it = std::find_if(times.begin(), times.end(), [&](const auto& t) { return t.first == label; });
     if (it == times.end()) times.emplace_back(label, ms);
     else it->second += ms;
-  }
+  });
   return times;
+}
+
+double Runtime::milliseconds(const cl::Event& event) {
+  const auto start = event.getProfilingInfo<CL_PROFILING_COMMAND_START>();
+  const auto end = event.getProfilingInfo<CL_PROFILING_COMMAND_END>();
+  return static_cast<double>(end - start) * 1e-6;
 }
 
 void Runtime::reset_times() { events_.clear(); }

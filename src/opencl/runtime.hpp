@@ -61,22 +61,35 @@ class Runtime {
   cl::Context& context() { return context_; }
   cl::CommandQueue& queue() { return queue_; }
 
-  /// Kernel `name` of the program built from kernel file `file` with `options` (-D ...). Builds
-  /// on first use per (file, options); std::runtime_error with the build log if that fails.
+  /// A new kernel object for kernel `name` of the program built from kernel file `file` with
+  /// `options` (-D ...). Builds on first use per (file, options); std::runtime_error with the
+  /// build log if that fails. It allocates (the key, the kernel): stages call it when they are
+  /// made, not per frame.
   cl::Kernel kernel(std::string_view file, std::string_view name, const std::string& options = "");
 
-  /// Enqueues `kernel` and keeps its event under `label` for kernel_times().
+  /// Enqueues `kernel` and keeps its event under `label` for for_each_kernel_time().
   void run(const cl::Kernel& kernel, const cl::NDRange& global, const cl::NDRange& local, const char* label);
 
+  /// Calls fn(label, milliseconds) for each kernel enqueued since the last reset_times(), in
+  /// enqueue order, with the device time it took; waits for the queue to finish first.
+  template <typename Fn>
+  void for_each_kernel_time(Fn&& fn) {
+    queue_.finish();
+    for (const auto& [label, event] : events_) fn(label, milliseconds(event));
+  }
   /// Device milliseconds per label (summed, in first-run order) of the kernels enqueued since the
   /// last reset_times(); waits for the queue to finish.
   std::vector<std::pair<std::string, double>> kernel_times();
+  /// Forgets the events. Their list keeps its capacity, so that frames after the first record
+  /// theirs without allocating.
   void reset_times();
 
   /// A device buffer; std::runtime_error naming the size and the device when it cannot be had.
   cl::Buffer buffer(std::size_t bytes, cl_mem_flags flags = CL_MEM_READ_WRITE);
 
  private:
+  static double milliseconds(const cl::Event& event);  // from the event's profiling times
+
   DeviceInfo device_;
   cl::Context context_;
   cl::CommandQueue queue_;

@@ -1,8 +1,17 @@
 // The stage list of the opencl backend: the stages of src/stages.hpp on device planes. Each
-// function enqueues its kernels on the runtime's in-order queue and returns without waiting; the
+// stage enqueues its kernels on the runtime's in-order queue and returns without waiting; the
 // results equal the reference stages bit for bit (tests/opencl/). Buffers are the caller's,
 // allocated once per matcher; no stage allocates device memory per call.
+//
+// A stage is an object made once with the settings that select its kernel program: making it
+// builds the program (once per runtime and option set) and creates the kernel. run() then checks
+// the planes, sets the kernel's arguments and enqueues it, and allocates nothing on the host, so
+// the pipeline makes every stage it needs when it is constructed and a frame only runs them. The
+// free functions after the classes make a stage for one call (tests, one-off use).
 #pragma once
+
+#include <string>
+#include <string_view>
 
 #include "opencl/runtime.hpp"
 #include "../stages.hpp"  // src/stages.hpp (a plain "stages.hpp" would name this file)
@@ -26,30 +35,163 @@ struct DeviceImage {
   PixelFormat format = PixelFormat::Gray8;
 };
 
-/// RGB/BGR/gray bytes -> luma plane (reference::to_gray).
-void to_gray(Runtime& rt, const DeviceImage& src, DevicePlane<std::uint8_t>& dst);
+/// A `__global` pointer argument given no buffer: the kernel is told not to touch it.
+struct NoBuffer {};
+
+/// What every stage holds: its runtime and its kernel. OpenCL takes a kernel's argument values
+/// when it is enqueued, so one kernel object serves every call of a frame (each level, each view).
+class StageKernel {
+ protected:
+  /// No kernel (a stage with nothing to do in its configuration).
+  explicit StageKernel(Runtime& rt) : rt_(&rt) {}
+  /// Kernel `name` of kernel file `file` built with `options` (Runtime::kernel).
+  StageKernel(Runtime& rt, std::string_view file, std::string_view name, const std::string& options)
+      : rt_(&rt), kernel_(rt.kernel(file, name, options)) {}
+
+  /// Sets the kernel's arguments, from `first` on, to `args`.
+  template <typename... Args>
+  void set_args_from(cl_uint first, const Args&... args) {
+    cl_uint index = first;
+    (set_arg(index++, args), ...);
+  }
+  template <typename... Args>
+  void set_args(const Args&... args) {
+    set_args_from(0, args...);
+  }
+  /// Enqueues the kernel over `global` in work-groups of `local`.
+  void enqueue(const cl::NDRange& global, const cl::NDRange& local, const char* label) {
+    rt_->run(kernel_, global, local, label);
+  }
+  /// Enqueues the kernel over a width x height plane, a work-item per 16 pixels of a row, in
+  /// work-groups of 16 x 4 work-items; the range is rounded up to whole groups and the kernels
+  /// skip the work-items past the plane. 64 work-items fill whole SIMD groups of 32 or 64 on GPUs,
+  /// and one fixed shape means one compiled work-group function on CPU drivers that compile one
+  /// per local size (PoCL), where a driver-chosen size would differ with the plane size.
+  void enqueue_chunks(int width, int height, const char* label) {
+    const int chunks = (width + 15) / 16;
+    enqueue(cl::NDRange((chunks + 15) / 16 * 16, (height + 3) / 4 * 4), cl::NDRange(16, 4), label);
+  }
+
+  Runtime* rt_;
+  cl::Kernel kernel_;
+
+ private:
+  template <typename T>
+  void set_arg(cl_uint index, const T& value) {
+    kernel_.setArg(index, value);
+  }
+  void set_arg(cl_uint index, NoBuffer) { kernel_.setArg(index, sizeof(cl_mem), nullptr); }
+};
+
+/// RGB/BGR/gray bytes of one pixel format -> luma plane (reference::to_gray).
+class ToGray : StageKernel {
+ public:
+  ToGray(Runtime& rt, PixelFormat format);
+  void run(const DeviceImage& src, DevicePlane<std::uint8_t>& dst);
+
+ private:
+  PixelFormat format_;
+};
+
 /// reference::pyramid_down.
-void pyramid_down(Runtime& rt, const DevicePlane<std::uint8_t>& src, DevicePlane<std::uint8_t>& dst);
+class PyramidDown : StageKernel {
+ public:
+  explicit PyramidDown(Runtime& rt);
+  void run(const DevicePlane<std::uint8_t>& src, DevicePlane<std::uint8_t>& dst);
+};
+
 /// reference::census_transform: CT or MCT codes, planar (codes.plane[k] sized like the image).
+class CensusTransform : StageKernel {
+ public:
+  CensusTransform(Runtime& rt, const CensusConfig& config);
+  void run(const DevicePlane<std::uint8_t>& image, DeviceCodes& codes);
+
+ private:
+  int window_;
+};
+
+/// reference::match with ranges SearchRanges::around(prior, dmin, dmax, radius): the cost and
+/// winner-takes-all of the coarsest level (prior == nullptr) or around the prior. One kernel per
+/// census word count, SHD window, sub-pixel and uniqueness on or off (config.dir aside: both views
+/// share it, run() takes the direction), popcount form and work layout (a GPU's or a CPU
+/// device's, whatever the device is: tests run both).
+class Match : StageKernel {
+ public:
+  Match(Runtime& rt, int code_words, const MatchConfig& config, Popcount popcount, bool gpu_layout);
+  void run(const DeviceCodes& ref, const DeviceCodes& other, const DevicePlane<std::int16_t>* prior, int dmin,
+           int dmax, int radius, int dir, DevicePlane<std::int16_t>& disparity);
+
+ private:
+  int code_words_;
+  MatchConfig config_;
+  int rows_;  // image rows per work-item
+  cl::NDRange local_;
+};
+
+/// reference::median_filter (k = 3 or 5).
+class MedianFilter : StageKernel {
+ public:
+  MedianFilter(Runtime& rt, int k);
+  void run(const DevicePlane<std::int16_t>& src, DevicePlane<std::int16_t>& dst);
+};
+
+/// reference::lr_check of one direction.
+class LrCheck : StageKernel {
+ public:
+  LrCheck(Runtime& rt, int dir);
+  void run(const DevicePlane<std::int16_t>& src, const DevicePlane<std::int16_t>& other, int threshold_q4,
+           DevicePlane<std::int16_t>& dst);
+};
+
+/// reference::fill_invalid, in place (FillMode::None makes no kernel and does nothing).
+class FillInvalid : StageKernel {
+ public:
+  FillInvalid(Runtime& rt, FillMode mode);
+  void run(DevicePlane<std::int16_t>& disparity);
+
+ private:
+  FillMode mode_;
+};
+
+/// reference::upscale.
+class Upscale : StageKernel {
+ public:
+  Upscale(Runtime& rt, int factor);
+  void run(const DevicePlane<std::int16_t>& src, int lo_q4, int hi_q4, DevicePlane<std::int16_t>& dst);
+
+ private:
+  int factor_;
+};
+
+/// The caller's conventions: q4 = src with kInvalid replaced by invalid_q4; with_float also makes
+/// disparity = src / 16 as float with NaN for kInvalid (as Matcher's outputs).
+class ToOutput : StageKernel {
+ public:
+  ToOutput(Runtime& rt, bool with_float);
+  /// `disparity` is written with with_float and must then not be null; it is ignored without.
+  void run(const DevicePlane<std::int16_t>& src, std::int16_t invalid_q4, DevicePlane<std::int16_t>& q4,
+           DevicePlane<float>* disparity);
+
+ private:
+  bool with_float_;
+};
+
+// One call each: the stage made for it, then run.
+void to_gray(Runtime& rt, const DeviceImage& src, DevicePlane<std::uint8_t>& dst);
+void pyramid_down(Runtime& rt, const DevicePlane<std::uint8_t>& src, DevicePlane<std::uint8_t>& dst);
 void census_transform(Runtime& rt, const DevicePlane<std::uint8_t>& image, const CensusConfig& config,
                       DeviceCodes& codes);
-/// reference::match with ranges SearchRanges::around(prior, dmin, dmax, radius): the cost and
-/// winner-takes-all of the coarsest level (prior == nullptr) or around the prior.
+/// With the work layout of the device (a GPU's or a CPU device's).
 void match(Runtime& rt, const DeviceCodes& ref, const DeviceCodes& other, const DevicePlane<std::int16_t>* prior,
            int dmin, int dmax, int radius, const MatchConfig& config, Popcount popcount,
            DevicePlane<std::int16_t>& disparity);
-/// reference::median_filter (k = 3 or 5).
 void median_filter(Runtime& rt, const DevicePlane<std::int16_t>& src, int k, DevicePlane<std::int16_t>& dst);
-/// reference::lr_check.
 void lr_check(Runtime& rt, const DevicePlane<std::int16_t>& src, const DevicePlane<std::int16_t>& other, int dir,
               int threshold_q4, DevicePlane<std::int16_t>& dst);
-/// reference::fill_invalid, in place.
 void fill_invalid(Runtime& rt, DevicePlane<std::int16_t>& disparity, FillMode mode);
-/// reference::upscale.
 void upscale(Runtime& rt, const DevicePlane<std::int16_t>& src, int factor, int lo_q4, int hi_q4,
              DevicePlane<std::int16_t>& dst);
-/// The caller's conventions: q4 = src with kInvalid replaced by invalid_q4; if `disparity` is not
-/// null, disparity = src / 16 as float with NaN for kInvalid (as Matcher's outputs).
+/// The float map is made when `disparity` is not null.
 void to_output(Runtime& rt, const DevicePlane<std::int16_t>& src, std::int16_t invalid_q4,
                DevicePlane<std::int16_t>& q4, DevicePlane<float>* disparity);
 

@@ -10,6 +10,7 @@
 #include <opencv2/videoio.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -366,9 +367,74 @@ TEST_F(Stream, BadOutputsAreRefusedBeforeAnyWork) {
                  "--disparity './seq/../seq/right_%04d.png' would write './seq/../seq/right_0002.png', an input");
   expect_failure(kSequence + "--preview-video out/p.gif", kUsage, "name it .avi");
   expect_failure(kSequence + "--format q4", kUsage, "--format q4 applies to --disparity files");
+  expect_failure(kSequence + "--depth 'out/z%d.png'", kUsage,
+                 "a PNG depth map holds millimetres and needs a calibration");
+  expect_failure(kSequence + "--depth 'out/z.pfm' --focal 100 --baseline 0.1", kUsage, "has 0 integer conversions");
+  expect_failure(kSequence + "--max-depth 5 --focal 100 --baseline 0.1", kUsage, "--max-depth cuts --depth");
+  expect_failure(kSequence + "--disparity 'out/%d.pfm' --depth 'out/%d.pfm'", kUsage, "are the same file");
+  expect_failure(kSequence + "--depth 'out/z%d.pfm' --focal 100 --baseline 0.1 --cx 300 --calib nowhere.yml",
+                 kRuntime, "nowhere.yml");
   EXPECT_EQ(folder_listing(folder_ / "seq"), inputs);
   EXPECT_EQ(read_text(folder_ / "seq/left_0002.png"), before);
   EXPECT_TRUE(fs::is_empty(folder_ / "out"));
+}
+
+TEST_F(Stream, DepthFollowsTheDisparityOfEveryFrame) {
+  write_sequence();
+  const Result r = run(kSequence + "--disparity 'out/d%d.pfm' --depth 'out/z%d.pfm' --focal 100 --baseline 0.1");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("6 depth files 'out/z%d.pfm' (depth PFM, m, +INF = none)"), std::string::npos) << r.output;
+  for (int f = 0; f < kFrames; ++f) {
+    const cv::Mat d = read_pfm(folder_ / "out" / numbered("d%d.pfm", f));
+    const cv::Mat z = read_pfm(folder_ / "out" / numbered("z%d.pfm", f));
+    ASSERT_EQ(d.size(), cv::Size(kWidth, kHeight));
+    ASSERT_EQ(z.size(), cv::Size(kWidth, kHeight));
+    // Z = focal x baseline / d, and no depth where there is no disparity.
+    for (int y = 0; y < kHeight; ++y)
+      for (int x = 0; x < kWidth; ++x) {
+        const float dv = d.at<float>(y, x), zv = z.at<float>(y, x);
+        if (std::isnan(dv) || dv <= 0.0f) {
+          ASSERT_TRUE(std::isnan(zv)) << x << "," << y << " frame " << f;
+        } else {
+          ASSERT_NEAR(zv, 10.0 / dv, 1e-5 * zv) << x << "," << y << " frame " << f;
+        }
+      }
+    // The square comes closer frame by frame: 10 / 16 m, 10 / 18 m, ...
+    const cv::Point centre(kSquareX + kSquareSize / 2, kSquareY + kSquareSize / 2);
+    EXPECT_NEAR(z.at<float>(centre), 10.0 / square_disparity(f), 1e-3) << "frame " << f;
+  }
+}
+
+// The raw cameras of a rig, slightly turned against each other: stream rectifies every frame as
+// match rectifies one pair, so their files agree byte for byte.
+TEST_F(Stream, RawRigIsRectifiedFrameByFrameAsMatchDoes) {
+  write_sequence(3);
+  {
+    cv::FileStorage rig((folder_ / "rig.yml").string(), cv::FileStorage::WRITE);
+    const cv::Mat K = (cv::Mat_<double>(3, 3) << 150, 0, 79.5, 0, 150, 59.5, 0, 0, 1);
+    const double angle = 0.01;  // radians about the optical axis
+    const cv::Mat R = (cv::Mat_<double>(3, 3) << std::cos(angle), -std::sin(angle), 0, std::sin(angle),
+                       std::cos(angle), 0, 0, 0, 1);
+    rig << "image_width" << kWidth << "image_height" << kHeight << "units" << "m";
+    rig << "K1" << K << "D1" << cv::Mat::zeros(1, 5, CV_64F) << "K2" << K << "D2" << cv::Mat::zeros(1, 5, CV_64F);
+    rig << "R" << R << "T" << (cv::Mat_<double>(3, 1) << -0.1, 0, 0);
+  }
+  const Result r = run(kSequence + "--calib rig.yml --disparity 'out/s%d.pfm' --depth 'out/sz%d.pfm'");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("3 frames 160x120"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("rectified with 'rig.yml'"), std::string::npos) << r.output;
+  for (int f = 0; f < 3; ++f) {
+    const Result m = run_shell("cd " + shell_quoted(folder_.string()) + " && " + shell_quoted(kProgram.string()) +
+                               " match " + numbered("seq/left_%04d.png", f) + " " + numbered("seq/right_%04d.png", f) +
+                               " " + kMatching + "--calib rig.yml -o out/m.pfm --depth out/mz.pfm 2>&1");
+    ASSERT_EQ(m.status, 0) << m.output;
+    EXPECT_EQ(read_text(folder_ / "out" / numbered("s%d.pfm", f)), read_text(folder_ / "out/m.pfm")) << "frame " << f;
+    EXPECT_EQ(read_text(folder_ / "out" / numbered("sz%d.pfm", f)), read_text(folder_ / "out/mz.pfm")) << "frame " << f;
+    // Rectification turns the views by a fraction of a degree: the square keeps about its disparity.
+    const cv::Mat d = read_pfm(folder_ / "out" / numbered("s%d.pfm", f));
+    ASSERT_EQ(d.size(), cv::Size(kWidth, kHeight));
+    EXPECT_GE(fraction_near(d, kSquareInside, square_disparity(f), 1.0), 0.8) << "frame " << f;
+  }
 }
 
 TEST_F(Stream, CamerasThatDoNotOpenAreNamed) {

@@ -11,13 +11,6 @@ using detail::CensusCodes;
 using detail::CensusConfig;
 using detail::kCodePad;
 
-CensusCodes make_codes(int w, int h, int window) {
-  CensusCodes codes;
-  codes.words = detail::census_words(window);
-  for (int k = 0; k < codes.words; ++k) codes.plane[k].reset(w, h, kCodePad);
-  return codes;
-}
-
 // First difference of two code sets over x in [-kCodePad, w + kCodePad), or empty when equal.
 std::string first_code_difference(const CensusCodes& a, const CensusCodes& b) {
   for (int k = 0; k < a.words; ++k) {
@@ -32,42 +25,16 @@ std::string first_code_difference(const CensusCodes& a, const CensusCodes& b) {
   return {};
 }
 
-std::vector<CensusConfig> all_configs() {
-  std::vector<CensusConfig> configs;
-  for (int window : {3, 5, 7, 9}) {
-    configs.push_back({CensusKind::Census, window, MeanKernel::Box});
-    configs.push_back({CensusKind::ModifiedCensus, window, MeanKernel::Box});
-    configs.push_back({CensusKind::ModifiedCensus, window, MeanKernel::Gaussian});
-  }
-  return configs;
-}
-
-std::string config_name(const CensusConfig& c) {
-  const std::string n = std::to_string(c.window);
-  if (c.kind == CensusKind::Census) return "CT " + n + "x" + n;
-  return "MCT " + n + "x" + n + (c.kernel == MeanKernel::Box ? " box" : " gaussian");
-}
-
-// Pixels from four grey levels only: many neighbours equal the centre, and many 3x3 sums are
-// exact multiples of the norm, the cases where "<" and "<=" (or a rounded mean) would differ.
-Plane<std::uint8_t> few_levels_image(int w, int h, std::uint32_t seed) {
-  Plane<std::uint8_t> p(w, h);
-  std::mt19937 rng(seed);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) p.at(x, y) = static_cast<std::uint8_t>(100 + rng() % 4);
-  return p;
-}
-
 void expect_equal_to_reference(const Plane<std::uint8_t>& image, const std::string& what) {
   const int w = image.width(), h = image.height();
-  for (const CensusConfig& config : all_configs()) {
-    CensusCodes expected = make_codes(w, h, config.window);
+  for (const CensusConfig& config : all_census_configs()) {
+    CensusCodes expected = code_planes(w, h, config.window);
     detail::reference::census_transform(image, config, expected);
     for_each_target_and_threads([&](const std::string& label) {
-      CensusCodes got = make_codes(w, h, config.window);
+      CensusCodes got = code_planes(w, h, config.window);
       detail::cpu::census_transform(image, config, got);
       EXPECT_EQ(first_code_difference(got, expected), "")
-          << what << " " << w << "x" << h << " " << config_name(config) << " " << label;
+          << what << " " << w << "x" << h << " " << census_config_name(config) << " " << label;
     });
   }
 }
@@ -87,15 +54,16 @@ TEST(CpuCensus, EqualsReferenceWithTiesAndPaddedInput) {
 
 TEST(CpuCensus, PadColumnsRepeatTheEdgeCodes) {
   const Plane<std::uint8_t> image = random_texture(77, 6, 5);
-  for (const CensusConfig& config : all_configs()) {
+  for (const CensusConfig& config : all_census_configs()) {
     for_each_target_and_threads([&](const std::string& label) {
-      CensusCodes codes = make_codes(77, 6, config.window);
+      CensusCodes codes = code_planes(77, 6, config.window);
       detail::cpu::census_transform(image, config, codes);
       for (int k = 0; k < codes.words; ++k)
         for (int y = 0; y < 6; ++y)
           for (int i = 1; i <= kCodePad; ++i) {
-            ASSERT_EQ(codes.plane[k].at(-i, y), codes.plane[k].at(0, y)) << config_name(config) << " " << label;
-            ASSERT_EQ(codes.plane[k].at(76 + i, y), codes.plane[k].at(76, y)) << config_name(config) << " " << label;
+            ASSERT_EQ(codes.plane[k].at(-i, y), codes.plane[k].at(0, y)) << census_config_name(config) << " " << label;
+            ASSERT_EQ(codes.plane[k].at(76 + i, y), codes.plane[k].at(76, y))
+                << census_config_name(config) << " " << label;
           }
     });
   }
@@ -110,7 +78,7 @@ TEST(CpuCensus, ThesisExampleOnEveryTarget) {
   for (int y = 0; y < 5; ++y)
     for (int x = 0; x < 5; ++x) image.at(98 + x, y) = kWindow[y][x];
   auto centre_string = [&](const CensusConfig& config) {
-    CensusCodes codes = make_codes(200, 5, config.window);
+    CensusCodes codes = code_planes(200, 5, config.window);
     detail::cpu::census_transform(image, config, codes);
     const int bits = config.window * config.window - 1;
     std::string s;

@@ -18,31 +18,6 @@ using detail::kInvalid;
 using detail::MatchConfig;
 using detail::MatchScratch;
 
-/// A rectified-looking pair: `right` is `left` moved `shift` pixels to the left (x_R = x_L - shift)
-/// plus mild noise, so that costs have clear minima (sub-pixel and uniqueness then have work).
-struct Pair {
-  Plane<std::uint8_t> left, right;
-};
-
-Pair make_pair(int w, int h, std::uint32_t seed, int shift) {
-  Pair p{random_texture(w, h, seed), Plane<std::uint8_t>(w, h)};
-  const Plane<std::uint8_t> noise = random_image(w, h, seed + 1);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const int v = p.left.at(detail::clamp_index(x + shift, w), y) + (noise.at(x, y) % 9) - 4;
-      p.right.at(x, y) = static_cast<std::uint8_t>(std::clamp(v, 0, 255));
-    }
-  return p;
-}
-
-CensusCodes census(const Plane<std::uint8_t>& image, int window, CensusKind kind) {
-  CensusCodes codes;
-  codes.words = detail::census_words(window);
-  for (int k = 0; k < codes.words; ++k) codes.plane[k].reset(image.width(), image.height(), detail::kCodePad);
-  detail::reference::census_transform(image, {kind, window, MeanKernel::Gaussian}, codes);
-  return codes;
-}
-
 /// Per-pixel ranges as planes and, where they come from the pipeline's rule, the rule itself:
 /// match() must give the same result from either form.
 struct Ranges {
@@ -144,9 +119,9 @@ TEST(CpuMatch, AwkwardSizesBothViewsFullRange) {
   std::uint32_t seed = 100;
   for (const auto& [w, h] : awkward_sizes()) {
     const bool large = w * h > 100000;
-    const Pair pair = make_pair(w, h, ++seed, 3);
-    const CensusCodes left = census(pair.left, 5, CensusKind::Census);
-    const CensusCodes right = census(pair.right, 5, CensusKind::Census);
+    const ShiftedPair pair = shifted_pair(w, h, ++seed, 3);
+    const CensusCodes left = reference_census(pair.left, 5, CensusKind::Census);
+    const CensusCodes right = reference_census(pair.right, 5, CensusKind::Census);
     const Ranges r = ranges(w, h, nullptr, 0, large ? 15 : std::min(w + 2, 24), 0);
     for (int dir : {-1, +1}) {
       if (large && dir > 0) continue;  // the large size once keeps the test quick
@@ -159,9 +134,9 @@ TEST(CpuMatch, AwkwardSizesBothViewsFullRange) {
 
 TEST(CpuMatch, PaddedStridesOfRangesAndOutput) {
   const int w = 77, h = 21;
-  const Pair pair = make_pair(w, h, 7, 4);
-  const CensusCodes left = census(pair.left, 5, CensusKind::Census);
-  const CensusCodes right = census(pair.right, 5, CensusKind::Census);
+  const ShiftedPair pair = shifted_pair(w, h, 7, 4);
+  const CensusCodes left = reference_census(pair.left, 5, CensusKind::Census);
+  const CensusCodes right = reference_census(pair.right, 5, CensusKind::Census);
   const Ranges r = ranges(w, h, nullptr, 0, 12, 0, /*pad=*/37);
   for (int dir : {-1, +1}) {
     const MatchConfig config{dir, 3, true, 0};
@@ -174,9 +149,9 @@ TEST(CpuMatch, EveryShdWindowCensusWindowAndWordCount) {
   std::uint32_t seed = 300;
   for (int census_window : {3, 5, 7, 9}) {
     for (CensusKind kind : {CensusKind::Census, CensusKind::ModifiedCensus}) {
-      const Pair pair = make_pair(w, h, ++seed, 6);
-      const CensusCodes left = census(pair.left, census_window, kind);
-      const CensusCodes right = census(pair.right, census_window, kind);
+      const ShiftedPair pair = shifted_pair(w, h, ++seed, 6);
+      const CensusCodes left = reference_census(pair.left, census_window, kind);
+      const CensusCodes right = reference_census(pair.right, census_window, kind);
       ASSERT_EQ(left.words, detail::census_words(census_window));
       const Ranges r = ranges(w, h, nullptr, 0, 20, 0);
       for (int a : {1, 3, 5, 7, 9}) {
@@ -191,9 +166,9 @@ TEST(CpuMatch, EveryShdWindowCensusWindowAndWordCount) {
 
 TEST(CpuMatch, SubpixelAndUniquenessAllCombinations) {
   const int w = 90, h = 33;
-  const Pair pair = make_pair(w, h, 21, 5);
-  const CensusCodes left = census(pair.left, 7, CensusKind::Census);
-  const CensusCodes right = census(pair.right, 7, CensusKind::Census);
+  const ShiftedPair pair = shifted_pair(w, h, 21, 5);
+  const CensusCodes left = reference_census(pair.left, 7, CensusKind::Census);
+  const CensusCodes right = reference_census(pair.right, 7, CensusKind::Census);
   const Ranges r = ranges(w, h, nullptr, 0, 15, 0);
   for (bool subpixel : {false, true})
     for (int uniqueness : {0, 15, 60}) {
@@ -209,8 +184,8 @@ TEST(CpuMatch, RandomCodesWithManyTies) {
   // Uncorrelated noise images: many candidates share the best cost, so the tie rule is exercised;
   // a = 1 gives the smallest cost spread.
   const int w = 67, h = 13;
-  const CensusCodes left = census(random_image(w, h, 5), 3, CensusKind::Census);
-  const CensusCodes right = census(random_image(w, h, 6), 3, CensusKind::Census);
+  const CensusCodes left = reference_census(random_image(w, h, 5), 3, CensusKind::Census);
+  const CensusCodes right = reference_census(random_image(w, h, 6), 3, CensusKind::Census);
   const Ranges r = ranges(w, h, nullptr, 0, 30, 0);
   for (int a : {1, 3})
     for (bool subpixel : {false, true})
@@ -219,9 +194,9 @@ TEST(CpuMatch, RandomCodesWithManyTies) {
 
 TEST(CpuMatch, NegativeMinimumDisparity) {
   const int w = 83, h = 27;
-  const Pair pair = make_pair(w, h, 31, -7);
-  const CensusCodes left = census(pair.left, 5, CensusKind::ModifiedCensus);
-  const CensusCodes right = census(pair.right, 5, CensusKind::ModifiedCensus);
+  const ShiftedPair pair = shifted_pair(w, h, 31, -7);
+  const CensusCodes left = reference_census(pair.left, 5, CensusKind::ModifiedCensus);
+  const CensusCodes right = reference_census(pair.right, 5, CensusKind::ModifiedCensus);
   const Ranges r = ranges(w, h, nullptr, -20, 10, 0);
   for (int dir : {-1, +1}) {
     const MatchConfig config{dir, 5, true, 15};
@@ -232,9 +207,9 @@ TEST(CpuMatch, NegativeMinimumDisparity) {
 
 TEST(CpuMatch, RangeNearlyAsWideAsTheImage) {
   const int w = 40, h = 11;
-  const Pair pair = make_pair(w, h, 41, 9);
-  const CensusCodes left = census(pair.left, 5, CensusKind::Census);
-  const CensusCodes right = census(pair.right, 5, CensusKind::Census);
+  const ShiftedPair pair = shifted_pair(w, h, 41, 9);
+  const CensusCodes left = reference_census(pair.left, 5, CensusKind::Census);
+  const CensusCodes right = reference_census(pair.right, 5, CensusKind::Census);
   const Ranges r = ranges(w, h, nullptr, 0, 38, 0);
   for (int dir : {-1, +1})
     for (int a : {1, 5, 9}) {
@@ -246,9 +221,9 @@ TEST(CpuMatch, RangeNearlyAsWideAsTheImage) {
 TEST(CpuMatch, RangesBeyondTheImageLeaveBorderPixelsInvalid) {
   // Only disparities 50..60 on a 56-wide image: most pixels have no candidate at all.
   const int w = 56, h = 9;
-  const Pair pair = make_pair(w, h, 43, 2);
-  const CensusCodes left = census(pair.left, 5, CensusKind::Census);
-  const CensusCodes right = census(pair.right, 5, CensusKind::Census);
+  const ShiftedPair pair = shifted_pair(w, h, 43, 2);
+  const CensusCodes left = reference_census(pair.left, 5, CensusKind::Census);
+  const CensusCodes right = reference_census(pair.right, 5, CensusKind::Census);
   const Ranges r = ranges(w, h, nullptr, 50, 60, 0);
   for (int dir : {-1, +1}) {
     const Stats s = expect_same(dir < 0 ? left : right, dir < 0 ? right : left, r, {dir, 5, true, 15});
@@ -260,9 +235,9 @@ TEST(CpuMatch, RangesBeyondTheImageLeaveBorderPixelsInvalid) {
 TEST(CpuMatch, VariedPerPixelRangesFromACoarsePrior) {
   std::uint32_t seed = 500;
   for (const auto& [w, h] : {std::pair{97, 41}, std::pair{64, 16}, std::pair{130, 35}, std::pair{5, 70}}) {
-    const Pair pair = make_pair(w, h, ++seed, 6);
-    const CensusCodes left = census(pair.left, 5, CensusKind::Census);
-    const CensusCodes right = census(pair.right, 5, CensusKind::Census);
+    const ShiftedPair pair = shifted_pair(w, h, ++seed, 6);
+    const CensusCodes left = reference_census(pair.left, 5, CensusKind::Census);
+    const CensusCodes right = reference_census(pair.right, 5, CensusKind::Census);
     const int dmin = -4, dmax = 30;
     for (int radius = 0; radius <= 3; ++radius) {
       // Whole-pixel priors of the coarser level (half the range), 20 % invalid.
@@ -285,9 +260,9 @@ TEST(CpuMatch, RangesByTheRuleAtAwkwardSizesAndPriorSizes) {
   int radius = 0;
   for (auto [w, h] : awkward_sizes()) {
     if (w * h > 100000) w = 181, h = 67;  // a smaller odd size instead of the large one: quicker
-    const Pair pair = make_pair(w, h, ++seed, 4);
-    const CensusCodes left = census(pair.left, 5, CensusKind::Census);
-    const CensusCodes right = census(pair.right, 5, CensusKind::Census);
+    const ShiftedPair pair = shifted_pair(w, h, ++seed, 4);
+    const CensusCodes left = reference_census(pair.left, 5, CensusKind::Census);
+    const CensusCodes right = reference_census(pair.right, 5, CensusKind::Census);
     for (bool ceil_half : {true, false}) {
       const int cw = ceil_half ? (w + 1) / 2 : w / 2, ch = ceil_half ? (h + 1) / 2 : h / 2;
       if (cw == 0 || ch == 0) continue;
@@ -303,9 +278,9 @@ TEST(CpuMatch, RangesByTheRuleAtAwkwardSizesAndPriorSizes) {
 TEST(CpuMatch, SmoothPriorLikeTheFinestLevel) {
   // A slanted surface seen through the pyramid: prior = 2 x (a plane at half resolution).
   const int w = 150, h = 60;
-  const Pair pair = make_pair(w, h, 61, 8);
-  const CensusCodes left = census(pair.left, 5, CensusKind::Census);
-  const CensusCodes right = census(pair.right, 5, CensusKind::Census);
+  const ShiftedPair pair = shifted_pair(w, h, 61, 8);
+  const CensusCodes left = reference_census(pair.left, 5, CensusKind::Census);
+  const CensusCodes right = reference_census(pair.right, 5, CensusKind::Census);
   Plane<std::int16_t> prior((w + 1) / 2, (h + 1) / 2);
   for (int y = 0; y < prior.height(); ++y)
     for (int x = 0; x < prior.width(); ++x) prior.at(x, y) = static_cast<std::int16_t>(16 * (2 + x / 12 + y / 9));
@@ -321,9 +296,9 @@ TEST(CpuMatch, CandidateChunksWhenTheScratchIsSmall) {
   // A scratch sized for 3 candidates forces the band through several chunks; the WTA state then
   // carries from chunk to chunk, also across the per-pixel hulls of a varied prior.
   const int w = 101, h = 37;
-  const Pair pair = make_pair(w, h, 71, 5);
-  const CensusCodes left = census(pair.left, 9, CensusKind::Census);
-  const CensusCodes right = census(pair.right, 9, CensusKind::Census);
+  const ShiftedPair pair = shifted_pair(w, h, 71, 5);
+  const CensusCodes left = reference_census(pair.left, 9, CensusKind::Census);
+  const CensusCodes right = reference_census(pair.right, 9, CensusKind::Census);
   const std::size_t small = detail::cpu::match_scratch_bytes(w, 3, 5);
   const Ranges full = ranges(w, h, nullptr, -3, 28, 0);
   const Plane<std::int16_t> prior = random_disparity((w + 1) / 2, (h + 1) / 2, 72, 0, 16 * 13, 0.2, true);
@@ -340,9 +315,9 @@ TEST(CpuMatch, ArbitraryRangesIncludingEmptyOnes) {
   // Not what search_ranges makes: independent random lo and hi per pixel, so that some intervals
   // are empty (lo > hi), some single candidates, and neighbours differ wildly.
   const int w = 71, h = 23;
-  const Pair pair = make_pair(w, h, 81, 3);
-  const CensusCodes left = census(pair.left, 5, CensusKind::Census);
-  const CensusCodes right = census(pair.right, 5, CensusKind::Census);
+  const ShiftedPair pair = shifted_pair(w, h, 81, 3);
+  const CensusCodes left = reference_census(pair.left, 5, CensusKind::Census);
+  const CensusCodes right = reference_census(pair.right, 5, CensusKind::Census);
   Ranges r{Plane<std::int16_t>(w, h), Plane<std::int16_t>(w, h), std::nullopt};
   std::mt19937 rng(82);
   std::uniform_int_distribution<int> dist(-12, 40);
@@ -365,9 +340,9 @@ TEST(CpuMatch, ArbitraryRangesIncludingEmptyOnes) {
 TEST(CpuMatch, ScratchSlicesNeedNotBeAligned) {
   // Slices of an odd size: the stage aligns each thread's slice itself.
   const int w = 90, h = 40;
-  const Pair pair = make_pair(w, h, 91, 4);
-  const CensusCodes left = census(pair.left, 5, CensusKind::Census);
-  const CensusCodes right = census(pair.right, 5, CensusKind::Census);
+  const ShiftedPair pair = shifted_pair(w, h, 91, 4);
+  const CensusCodes left = reference_census(pair.left, 5, CensusKind::Census);
+  const CensusCodes right = reference_census(pair.right, 5, CensusKind::Census);
   const Ranges r = ranges(w, h, nullptr, 0, 20, 0);
   const std::size_t odd = detail::cpu::match_scratch_bytes(w, 21, 5) + 40;
   expect_same(left, right, r, {-1, 5, true, 15}, odd);

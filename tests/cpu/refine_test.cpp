@@ -2,7 +2,6 @@
 #include <omp.h>
 
 #include <algorithm>
-#include <initializer_list>
 #include <random>
 #include <string>
 #include <vector>
@@ -19,32 +18,10 @@ namespace cpu = detail::cpu;
 
 constexpr std::int16_t I = kInvalid;
 
-Plane<std::int16_t> make_map(int w, int h, std::initializer_list<std::int16_t> values) {
-  Plane<std::int16_t> p(w, h);
-  auto it = values.begin();
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) p.at(x, y) = *it++;
-  return p;
-}
-
-std::vector<std::int16_t> pixels(const Plane<std::int16_t>& p) {
-  std::vector<std::int16_t> v;
-  for (int y = 0; y < p.height(); ++y)
-    for (int x = 0; x < p.width(); ++x) v.push_back(p.at(x, y));
-  return v;
-}
-
 Plane<std::int16_t> copy_of(const Plane<std::int16_t>& p) {
   Plane<std::int16_t> c(p.width(), p.height());
   for (int y = 0; y < p.height(); ++y) std::copy(p.row(y), p.row(y) + p.width(), c.row(y));
   return c;
-}
-
-int count_invalid(const Plane<std::int16_t>& p) {
-  int n = 0;
-  for (int y = 0; y < p.height(); ++y)
-    for (int x = 0; x < p.width(); ++x) n += p.at(x, y) == kInvalid;
-  return n;
 }
 
 SpeckleScratch make_scratch(int w, int h) {
@@ -53,14 +30,6 @@ SpeckleScratch make_scratch(int w, int h) {
   s.stack = detail::allocate_aligned<std::int32_t>(static_cast<std::size_t>(w) * h);
   return s;
 }
-
-// Runs fn for every SIMD target and for 1 and 2 OpenMP threads.
-// The map kinds the comparisons run on: (invalid fraction, whole pixels or fractional Q4).
-struct MapKind {
-  double invalid;
-  bool whole;
-};
-constexpr MapKind kMapKinds[] = {{0.0, false}, {0.1, false}, {0.1, true}, {0.6, true}, {1.0, false}};
 
 // Disparity-like map for speckle removal: tiles of nearly constant value (neighbours within the
 // 16 of max_diff, tiles far apart), dotted with small islands of another value and with invalid
@@ -117,24 +86,7 @@ TEST(RefineReference, Median3x3KnownAnswer) {
 }
 
 TEST(RefineReference, FillKnownAnswers) {
-  struct Case {
-    FillMode mode;
-    std::vector<std::int16_t> in, out;
-  };
-  const Case cases[] = {
-      {FillMode::None, {5, I, I, I, 9}, {5, I, I, I, 9}},
-      // Odd run: the middle pixel is as far from 5 as from 9 and takes the smaller.
-      {FillMode::Nearest, {5, I, I, I, 9}, {5, 5, 5, 9, 9}},
-      {FillMode::Nearest, {9, I, I, I, 5}, {9, 9, 5, 5, 5}},
-      {FillMode::Nearest, {9, I, I, I, I, 5}, {9, 9, 9, 5, 5, 5}},
-      {FillMode::NearestLower, {5, I, I, I, 9}, {5, 5, 5, 5, 9}},
-      {FillMode::NearestLower, {9, I, -3, I, I, 7}, {9, -3, -3, -3, -3, 7}},
-      // Runs touching a border take the one neighbour they have; an all-invalid row stays so.
-      {FillMode::Nearest, {I, I, 7, I, 4, I}, {7, 7, 7, 4, 4, 4}},
-      {FillMode::NearestLower, {I, I, 7, I, 4, I}, {7, 7, 7, 4, 4, 4}},
-      {FillMode::Nearest, {I, I, I}, {I, I, I}},
-  };
-  for (const Case& c : cases) {
+  for (const FillCase& c : fill_known_answers()) {
     Plane<std::int16_t> p(static_cast<int>(c.in.size()), 1);
     std::copy(c.in.begin(), c.in.end(), p.row(0));
     reference::fill_invalid(p, c.mode);
@@ -228,12 +180,7 @@ TEST(RefineCpu, LrCheckMatchesReference) {
   std::uint32_t seed = 200;
   for (auto [w, h] : awkward_sizes()) {
     for (const MapKind& kind : kMapKinds) {
-      // Disparities up to 40 px against widths down to 1, so targets fall both inside and
-      // outside the image; a narrow value range makes agreement within the threshold common.
-      const auto src = random_disparity(w, h, ++seed, -160, 640, kind.invalid, kind.whole);
-      const auto other = random_disparity(w, h, ++seed, -160, 640, kind.invalid / 2, kind.whole);
-      const auto narrow = random_disparity(w, h, ++seed, 0, 40, kind.invalid, kind.whole);
-      const auto narrow_other = random_disparity(w, h, ++seed, 0, 40, kind.invalid, kind.whole);
+      const auto [src, other, narrow, narrow_other] = lr_check_maps(w, h, seed, kind);
       for (int dir : {-1, +1}) {
         for (int threshold : {0, 16, 32}) {
           for (auto [a, b] : {std::pair{&src, &other}, {&narrow, &narrow_other}}) {
@@ -251,32 +198,12 @@ TEST(RefineCpu, LrCheckMatchesReference) {
   }
 }
 
-// A map like a real one: piecewise constant disparities (steps every few pixels, so vectors meet
-// depth edges) with sub-pixel noise that crosses the rounding point (16 k + 7 vs 16 k + 8), some
-// invalid pixels, and an `other` map that agrees mostly but not everywhere.
-Plane<std::int16_t> smooth_disparity(int w, int h, std::uint32_t seed, int base_q4, int step_px, int noise_q4) {
-  Plane<std::int16_t> p(w, h);
-  std::mt19937 rng(seed);
-  std::uniform_int_distribution<int> noise(-noise_q4, noise_q4), invalid(0, 19), level(0, 5);
-  for (int y = 0; y < h; ++y) {
-    int v = base_q4;
-    for (int x = 0; x < w; ++x) {
-      if (x % step_px == 0) v = base_q4 + 16 * level(rng) + 8 * (level(rng) % 2);
-      p.at(x, y) = invalid(rng) == 0 ? detail::kInvalid : static_cast<std::int16_t>(v + noise(rng));
-    }
-  }
-  return p;
-}
-
 TEST(RefineCpu, LrCheckMatchesReferenceOnSmoothMaps) {
   std::uint32_t seed = 700;
   auto sizes = awkward_sizes();
   sizes.push_back({300, 2});
   for (auto [w, h] : sizes) {
-    // Positive and negative disparities, narrow and wide steps, and values at the int16 limits
-    // (the rounding of 32760 must not overflow; partners of huge disparities leave the image).
-    for (auto [base, step] : {std::pair{16 * 3, 13}, {16 * -9, 40}, {16 * 20, 7}, {32760 - 16 * 6, 50},
-                              {-32768 + 16 * 1, 50}}) {
+    for (auto [base, step] : kLrCheckMapShapes) {
       const auto a = smooth_disparity(w, h, ++seed, base, step, 9);
       const auto b = smooth_disparity(w, h, ++seed, base, step, 9);
       for (int dir : {-1, +1})

@@ -1,7 +1,6 @@
 // The opencl backend's first stages (to_gray, pyramid_down, census_transform) equal the reference
 // bit for bit at awkward sizes, for every pixel format and census variant, and write only the pixels
 // of the caller's planes (row padding and slack keep what they held).
-#include <cstring>
 #include <vector>
 
 #include "opencl/stages.hpp"
@@ -18,94 +17,33 @@ using detail::opencl::DeviceImage;
 using detail::opencl::DevicePlane;
 using detail::opencl::Runtime;
 
-constexpr std::uint8_t kSentinel = 0xa5;
-
-// Every byte of the plane's buffer, row padding and slack included, set to `value`.
-template <typename T>
-void fill_bytes(Runtime& rt, DevicePlane<T>& plane, std::uint8_t value) {
-  const std::vector<std::uint8_t> bytes(plane.bytes(), value);
-  rt.queue().enqueueWriteBuffer(plane.buffer, CL_TRUE, 0, bytes.size(), bytes.data());
-}
-
-// A device plane as the pipeline driver allocates it, holding kSentinel bytes everywhere.
-template <typename T>
-DevicePlane<T> device_plane(Runtime& rt, int w, int h) {
-  DevicePlane<T> plane;
-  plane.reset(rt, w, h);
-  fill_bytes(rt, plane, kSentinel);
-  return plane;
-}
-
-// Census code planes as the pipeline driver allocates them: codes.plane[k].reset(rt, w, h) for the
-// words the window needs, the others left empty.
-DeviceCodes device_codes(Runtime& rt, int w, int h, int window) {
+// Census code planes as the pipeline driver allocates them: codes.plane[k] for the words the
+// window needs, marked; the others left empty.
+DeviceCodes marked_codes(Runtime& rt, int w, int h, int window) {
   DeviceCodes codes;
   codes.words = detail::census_words(window);
-  for (int k = 0; k < codes.words; ++k) {
-    codes.plane[k].reset(rt, w, h);
-    fill_bytes(rt, codes.plane[k], kSentinel);
-  }
+  for (int k = 0; k < codes.words; ++k) codes.plane[k] = marked_plane<std::uint32_t>(rt, w, h);
   return codes;
-}
-
-template <typename T>
-Plane<T> download(Runtime& rt, const DevicePlane<T>& plane) {
-  Plane<T> host(plane.width, plane.height);
-  detail::opencl::download(rt, plane, host);
-  return host;
-}
-
-template <typename T>
-DevicePlane<T> upload(Runtime& rt, const Plane<T>& host) {
-  DevicePlane<T> plane = device_plane<T>(rt, host.width(), host.height());
-  detail::opencl::upload(rt, host, plane);
-  return plane;
-}
-
-// The first element of the row padding (x >= width) or of the slack after the last row that no longer
-// holds kSentinel bytes, or empty when none: stages write only the pixels of their planes.
-template <typename T>
-std::string padding_difference(Runtime& rt, const DevicePlane<T>& plane) {
-  std::vector<T> all(plane.bytes() / sizeof(T));
-  rt.queue().enqueueReadBuffer(plane.buffer, CL_TRUE, 0, plane.bytes(), all.data());
-  T sentinel;
-  std::memset(&sentinel, kSentinel, sizeof(T));
-  for (int y = 0; y < plane.height; ++y)
-    for (int x = plane.width; x < plane.stride; ++x)
-      if (all[static_cast<std::size_t>(y) * plane.stride + x] != sentinel)
-        return "row padding written at (" + std::to_string(x) + ", " + std::to_string(y) + ")";
-  for (std::size_t i = static_cast<std::size_t>(plane.stride) * plane.height; i < all.size(); ++i)
-    if (all[i] != sentinel) return "slack after the last row written at element " + std::to_string(i);
-  return {};
 }
 
 // ---------------------------------------------------------------------------------------------
 // to_gray
 
-// An interleaved input image of seeded random bytes whose rows are `extra` bytes longer than the
-// pixels, uploaded as the caller's bytes: the device buffer ends right after the last pixel.
-struct RandomInput {
-  std::vector<std::uint8_t> bytes;
-  ImageView view;
+// RandomInput's bytes uploaded as the caller's bytes: the device buffer ends right after the last
+// pixel.
+struct DeviceInput {
+  RandomInput host;
   DeviceImage device;
-  RandomInput(Runtime& rt, int w, int h, PixelFormat format, int extra, std::uint32_t seed) {
-    const std::ptrdiff_t stride = static_cast<std::ptrdiff_t>(w) * bytes_per_pixel(format) + extra;
-    bytes.resize(static_cast<std::size_t>(stride * (h - 1) + w * bytes_per_pixel(format)));
-    std::mt19937 rng(seed);
-    for (auto& b : bytes) b = static_cast<std::uint8_t>(rng());
-    view = {bytes.data(), w, h, stride, format};
-    device.bytes = rt.buffer(bytes.size(), CL_MEM_READ_ONLY);
-    rt.queue().enqueueWriteBuffer(device.bytes, CL_TRUE, 0, bytes.size(), bytes.data());
+  DeviceInput(Runtime& rt, int w, int h, PixelFormat format, int extra, std::uint32_t seed)
+      : host(w, h, format, extra, seed) {
+    device.bytes = rt.buffer(host.bytes.size(), CL_MEM_READ_ONLY);
+    rt.queue().enqueueWriteBuffer(device.bytes, CL_TRUE, 0, host.bytes.size(), host.bytes.data());
     device.width = w;
     device.height = h;
-    device.stride = static_cast<std::size_t>(stride);
+    device.stride = static_cast<std::size_t>(host.view.stride);
     device.format = format;
   }
 };
-
-const char* format_name(PixelFormat f) {
-  return f == PixelFormat::Gray8 ? "gray8" : f == PixelFormat::Rgb8 ? "rgb8" : "bgr8";
-}
 
 TEST(OpenclGray, EqualsReferenceForEveryFormatSizeAndStride) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
@@ -113,14 +51,14 @@ TEST(OpenclGray, EqualsReferenceForEveryFormatSizeAndStride) {
   for (auto [w, h] : awkward_sizes()) {
     for (PixelFormat format : {PixelFormat::Gray8, PixelFormat::Rgb8, PixelFormat::Bgr8}) {
       for (int extra : {0, 13}) {
-        const RandomInput input(*rt, w, h, format, extra, seed++);
+        const DeviceInput input(*rt, w, h, format, extra, seed++);
         Plane<std::uint8_t> expected(w, h);
-        detail::reference::to_gray(input.view, expected);
-        DevicePlane<std::uint8_t> luma = device_plane<std::uint8_t>(*rt, w, h);
+        detail::reference::to_gray(input.host.view, expected);
+        DevicePlane<std::uint8_t> luma = marked_plane<std::uint8_t>(*rt, w, h);
         detail::opencl::to_gray(*rt, input.device, luma);
         const std::string what = std::to_string(w) + "x" + std::to_string(h) + " " + format_name(format) +
                                  " stride +" + std::to_string(extra);
-        EXPECT_EQ(first_difference(download(*rt, luma), expected), "") << what;
+        EXPECT_EQ(first_difference(to_host(*rt, luma), expected), "") << what;
         EXPECT_EQ(padding_difference(*rt, luma), "") << what;
       }
     }
@@ -129,33 +67,18 @@ TEST(OpenclGray, EqualsReferenceForEveryFormatSizeAndStride) {
 
 TEST(OpenclGray, KnownLumaValues) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
-  // (77 R + 150 G + 29 B + 128) >> 8 for 40 pixels: two whole 16-pixel chunks and a tail of 8.
-  std::vector<std::uint8_t> rgb;
-  std::vector<int> want;
-  for (int i = 0; i < 40; ++i) {
-    const int r = (i * 37) % 256, g = (i * 91 + 7) % 256, b = 255 - (i * 13) % 256;
-    rgb.insert(rgb.end(), {static_cast<std::uint8_t>(r), static_cast<std::uint8_t>(g), static_cast<std::uint8_t>(b)});
-    want.push_back((77 * r + 150 * g + 29 * b + 128) >> 8);
-  }
+  // 40 pixels: two whole 16-pixel chunks and a tail of 8.
+  const auto [rgb, want] = known_luma_row();
   DeviceImage image{rt->buffer(rgb.size()), 40, 1, rgb.size(), PixelFormat::Rgb8};
   rt->queue().enqueueWriteBuffer(image.bytes, CL_TRUE, 0, rgb.size(), rgb.data());
-  DevicePlane<std::uint8_t> luma = device_plane<std::uint8_t>(*rt, 40, 1);
+  DevicePlane<std::uint8_t> luma = marked_plane<std::uint8_t>(*rt, 40, 1);
   detail::opencl::to_gray(*rt, image, luma);
-  const Plane<std::uint8_t> out = download(*rt, luma);
+  const Plane<std::uint8_t> out = to_host(*rt, luma);
   for (int x = 0; x < 40; ++x) ASSERT_EQ(out.at(x, 0), want[x]) << "x = " << x;
 }
 
 // ---------------------------------------------------------------------------------------------
 // pyramid_down
-
-std::vector<std::pair<int, int>> pyramid_sizes() {
-  std::vector<std::pair<int, int>> sizes = awkward_sizes();
-  // 1 x N and N x 1 of both parities, and widths on either side of the whole-vector condition
-  // 2 x0 + 33 < W of the work-item at x0 = 16 (65, 66) and x0 = 32 (97, 98).
-  sizes.insert(sizes.end(),
-               {{1, 1}, {1, 7}, {7, 1}, {2, 1}, {1, 2}, {3, 3}, {4, 5}, {65, 3}, {66, 3}, {97, 2}, {98, 2}});
-  return sizes;
-}
 
 TEST(OpenclPyramid, EqualsReferenceOnOddAndEvenSizes) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
@@ -164,10 +87,10 @@ TEST(OpenclPyramid, EqualsReferenceOnOddAndEvenSizes) {
     const Plane<std::uint8_t> src = random_image(w, h, seed++);
     Plane<std::uint8_t> expected((w + 1) / 2, (h + 1) / 2);
     detail::reference::pyramid_down(src, expected);
-    const DevicePlane<std::uint8_t> src_device = upload(*rt, src);
-    DevicePlane<std::uint8_t> dst = device_plane<std::uint8_t>(*rt, (w + 1) / 2, (h + 1) / 2);
+    const DevicePlane<std::uint8_t> src_device = to_device(*rt, src);
+    DevicePlane<std::uint8_t> dst = marked_plane<std::uint8_t>(*rt, (w + 1) / 2, (h + 1) / 2);
     detail::opencl::pyramid_down(*rt, src_device, dst);
-    EXPECT_EQ(first_difference(download(*rt, dst), expected), "") << w << "x" << h;
+    EXPECT_EQ(first_difference(to_host(*rt, dst), expected), "") << w << "x" << h;
     EXPECT_EQ(padding_difference(*rt, dst), "") << w << "x" << h;
   }
 }
@@ -177,9 +100,9 @@ TEST(OpenclPyramid, ImpulseGivesTheBinomialWeights) {
   // The impulse at (50, 4) lies in the whole-vector part of the row (output columns 16..31).
   Plane<std::uint8_t> src(99, 9);
   src.at(50, 4) = 255;
-  DevicePlane<std::uint8_t> dst = device_plane<std::uint8_t>(*rt, 50, 5);
-  detail::opencl::pyramid_down(*rt, upload(*rt, src), dst);
-  const Plane<std::uint8_t> out = download(*rt, dst);
+  DevicePlane<std::uint8_t> dst = marked_plane<std::uint8_t>(*rt, 50, 5);
+  detail::opencl::pyramid_down(*rt, to_device(*rt, src), dst);
+  const Plane<std::uint8_t> out = to_host(*rt, dst);
   EXPECT_EQ(out.at(25, 2), (36 * 255 + 128) >> 8);
   EXPECT_EQ(out.at(24, 2), (6 * 255 + 128) >> 8);
   EXPECT_EQ(out.at(26, 1), (1 * 255 + 128) >> 8);
@@ -188,25 +111,19 @@ TEST(OpenclPyramid, ImpulseGivesTheBinomialWeights) {
 
 TEST(OpenclPyramid, WrongDestinationSizeIsAnError) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
-  const DevicePlane<std::uint8_t> src = device_plane<std::uint8_t>(*rt, 31, 7);
-  DevicePlane<std::uint8_t> dst = device_plane<std::uint8_t>(*rt, 15, 4);  // 16 x 4 expected
+  const DevicePlane<std::uint8_t> src = marked_plane<std::uint8_t>(*rt, 31, 7);
+  DevicePlane<std::uint8_t> dst = marked_plane<std::uint8_t>(*rt, 15, 4);  // 16 x 4 expected
   EXPECT_THROW(detail::opencl::pyramid_down(*rt, src, dst), std::invalid_argument);
 }
 
 // ---------------------------------------------------------------------------------------------
 // census_transform
 
-std::string config_name(const CensusConfig& c) {
-  const std::string n = std::to_string(c.window);
-  if (c.kind == CensusKind::Census) return "CT" + n + "x" + n;
-  return "MCT" + n + "x" + n + (c.kernel == MeanKernel::Box ? "Box" : "Gaussian");
-}
-
 // First difference between the device codes and the reference's, or empty when equal; also checks
 // that no code plane's padding was written.
 std::string code_difference(Runtime& rt, const DeviceCodes& got, const CensusCodes& expected) {
   for (int k = 0; k < expected.words; ++k) {
-    const std::string diff = first_difference(download(rt, got.plane[k]), expected.plane[k]);
+    const std::string diff = first_difference(to_host(rt, got.plane[k]), expected.plane[k]);
     if (!diff.empty()) return "word " + std::to_string(k) + " " + diff;
     const std::string padding = padding_difference(rt, got.plane[k]);
     if (!padding.empty()) return "word " + std::to_string(k) + " " + padding;
@@ -216,23 +133,11 @@ std::string code_difference(Runtime& rt, const DeviceCodes& got, const CensusCod
 
 std::string device_vs_reference(Runtime& rt, const Plane<std::uint8_t>& image, const CensusConfig& config) {
   const int w = image.width(), h = image.height();
-  CensusCodes expected;
-  expected.words = detail::census_words(config.window);
-  for (int k = 0; k < expected.words; ++k) expected.plane[k].reset(w, h, detail::kCodePad);
+  CensusCodes expected = code_planes(w, h, config.window);
   detail::reference::census_transform(image, config, expected);
-  DeviceCodes got = device_codes(rt, w, h, config.window);
-  detail::opencl::census_transform(rt, upload(rt, image), config, got);
+  DeviceCodes got = marked_codes(rt, w, h, config.window);
+  detail::opencl::census_transform(rt, to_device(rt, image), config, got);
   return code_difference(rt, got, expected);
-}
-
-// Pixels from four grey levels only: many neighbours equal the centre, and many 3x3 sums are
-// exact multiples of the norm, the cases where "<" and "<=" (or a rounded mean) would differ.
-Plane<std::uint8_t> few_levels_image(int w, int h, std::uint32_t seed) {
-  Plane<std::uint8_t> p(w, h);
-  std::mt19937 rng(seed);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) p.at(x, y) = static_cast<std::uint8_t>(100 + rng() % 4);
-  return p;
 }
 
 class OpenclCensus : public ::testing::TestWithParam<CensusConfig> {};
@@ -253,28 +158,20 @@ TEST_P(OpenclCensus, EqualsReferenceWithTiesAndNarrowImages) {
     EXPECT_EQ(device_vs_reference(*rt, few_levels_image(w, h, seed++), GetParam()), "") << w << "x" << h;
 }
 
-std::vector<CensusConfig> all_configs() {
-  std::vector<CensusConfig> configs;
-  for (int window : {3, 5, 7, 9}) {
-    configs.push_back({CensusKind::Census, window, MeanKernel::Box});
-    configs.push_back({CensusKind::ModifiedCensus, window, MeanKernel::Box});
-    configs.push_back({CensusKind::ModifiedCensus, window, MeanKernel::Gaussian});
-  }
-  return configs;
-}
-
-INSTANTIATE_TEST_SUITE_P(OpenclCensusVariants, OpenclCensus, ::testing::ValuesIn(all_configs()),
-                         [](const ::testing::TestParamInfo<CensusConfig>& info) { return config_name(info.param); });
+INSTANTIATE_TEST_SUITE_P(OpenclCensusVariants, OpenclCensus, ::testing::ValuesIn(all_census_configs()),
+                         [](const ::testing::TestParamInfo<CensusConfig>& info) {
+                           return census_config_name(info.param);
+                         });
 
 // The census string of pixel (cx, 2) as '0'/'1' characters, first neighbour first.
 std::string centre_string(Runtime& rt, const Plane<std::uint8_t>& image, int cx, const CensusConfig& config) {
-  DeviceCodes codes = device_codes(rt, image.width(), image.height(), config.window);
-  detail::opencl::census_transform(rt, upload(rt, image), config, codes);
+  DeviceCodes codes = marked_codes(rt, image.width(), image.height(), config.window);
+  detail::opencl::census_transform(rt, to_device(rt, image), config, codes);
   const int bits = config.window * config.window - 1;
   std::string s;
   for (int k = 0; k < codes.words; ++k) {
     const int in_word = k == codes.words - 1 ? bits - 32 * k : 32;
-    const std::uint32_t word = download(rt, codes.plane[k]).at(cx, 2);
+    const std::uint32_t word = to_host(rt, codes.plane[k]).at(cx, 2);
     for (int b = in_word - 1; b >= 0; --b) s += ((word >> b) & 1u) ? '1' : '0';
   }
   return s;
@@ -302,9 +199,9 @@ TEST(OpenclCensusKnownAnswer, ThesisExample) {
 TEST(OpenclCensusPlanes, WritesTheCallersPlanesAndChecksThem) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
   const Plane<std::uint8_t> image = random_texture(37, 6, 3);
-  const DevicePlane<std::uint8_t> device_image = upload(*rt, image);
+  const DevicePlane<std::uint8_t> device_image = to_device(*rt, image);
   const CensusConfig config{CensusKind::ModifiedCensus, 7, MeanKernel::Gaussian};
-  DeviceCodes codes = device_codes(*rt, 37, 6, 7);
+  DeviceCodes codes = marked_codes(*rt, 37, 6, 7);
   ASSERT_EQ(codes.words, 2);
   const cl_mem plane0 = codes.plane[0].buffer(), plane1 = codes.plane[1].buffer();
   detail::opencl::census_transform(*rt, device_image, config, codes);
@@ -319,11 +216,11 @@ TEST(OpenclCensusPlanes, WritesTheCallersPlanesAndChecksThem) {
   EXPECT_EQ(code_difference(*rt, codes, expected), "");
 
   // Planes that do not fit the window or the image are the caller's error, reported before any work.
-  DeviceCodes one_word = device_codes(*rt, 37, 6, 5);
+  DeviceCodes one_word = marked_codes(*rt, 37, 6, 5);
   EXPECT_THROW(detail::opencl::census_transform(*rt, device_image, config, one_word), std::invalid_argument);
-  DeviceCodes smaller = device_codes(*rt, 36, 6, 7);
+  DeviceCodes smaller = marked_codes(*rt, 36, 6, 7);
   EXPECT_THROW(detail::opencl::census_transform(*rt, device_image, config, smaller), std::invalid_argument);
-  DeviceCodes window4 = device_codes(*rt, 37, 6, 5);
+  DeviceCodes window4 = marked_codes(*rt, 37, 6, 5);
   EXPECT_THROW(detail::opencl::census_transform(*rt, device_image, {CensusKind::Census, 4, MeanKernel::Box}, window4),
                std::invalid_argument);
 }

@@ -30,23 +30,6 @@ using detail::opencl::DevicePlane;
 using detail::opencl::Popcount;
 using detail::opencl::Runtime;
 
-/// A rectified-looking pair: `right` is `left` moved `shift` pixels to the left plus mild noise,
-/// so that costs have clear minima (sub-pixel and uniqueness then have work).
-struct Pair {
-  Plane<std::uint8_t> left, right;
-};
-
-Pair make_pair(int w, int h, std::uint32_t seed, int shift) {
-  Pair p{random_texture(w, h, seed), Plane<std::uint8_t>(w, h)};
-  const Plane<std::uint8_t> noise = random_image(w, h, seed + 1);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const int v = p.left.at(detail::clamp_index(x + shift, w), y) + (noise.at(x, y) % 9) - 4;
-      p.right.at(x, y) = static_cast<std::uint8_t>(std::clamp(v, 0, 255));
-    }
-  return p;
-}
-
 /// Host codes (reference::census_transform) and the same codes on the device.
 struct Codes {
   CensusCodes host;
@@ -55,9 +38,8 @@ struct Codes {
 
 Codes census(Runtime& rt, const Plane<std::uint8_t>& image, int window, CensusKind kind) {
   Codes c;
-  c.host.words = c.device.words = detail::census_words(window);
-  for (int k = 0; k < c.host.words; ++k) c.host.plane[k].reset(image.width(), image.height(), detail::kCodePad);
-  detail::reference::census_transform(image, {kind, window, MeanKernel::Gaussian}, c.host);
+  c.host = reference_census(image, window, kind);
+  c.device.words = c.host.words;
   for (int k = 0; k < c.host.words; ++k) {
     c.device.plane[k].reset(rt, image.width(), image.height());
     detail::opencl::upload(rt, c.host.plane[k], c.device.plane[k]);
@@ -71,7 +53,7 @@ struct Views {
   const Codes& other(int dir) const { return dir < 0 ? right : left; }
 };
 
-Views views(Runtime& rt, const Pair& pair, int window, CensusKind kind = CensusKind::Census) {
+Views views(Runtime& rt, const ShiftedPair& pair, int window, CensusKind kind = CensusKind::Census) {
   return {census(rt, pair.left, window, kind), census(rt, pair.right, window, kind)};
 }
 
@@ -153,7 +135,7 @@ TEST(OpenclMatch, AwkwardSizesBothViewsFullRange) {
   std::uint32_t seed = 100;
   for (auto [w, h] : awkward_sizes()) {
     if (w * h > 100000) w = 181, h = 67;  // a modest odd size instead of the large one
-    const Views v = views(*rt, make_pair(w, h, ++seed, 3), 5);
+    const Views v = views(*rt, shifted_pair(w, h, ++seed, 3), 5);
     for (int dir : {-1, +1}) {
       const Stats s = expect_same(*rt, v, {nullptr, 0, std::min(w + 2, 24), 0}, {dir, 5, dir < 0, dir < 0 ? 15 : 0});
       EXPECT_GT(s.valid, 0) << w << "x" << h;
@@ -164,7 +146,7 @@ TEST(OpenclMatch, AwkwardSizesBothViewsFullRange) {
 TEST(OpenclMatch, BandOf640ColumnsFullSearchAndAroundAPrior) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
   const int w = 640, h = 100;
-  const Views v = views(*rt, make_pair(w, h, 11, 9), 5, CensusKind::ModifiedCensus);
+  const Views v = views(*rt, shifted_pair(w, h, 11, 9), 5, CensusKind::ModifiedCensus);
   Stats s = expect_same(*rt, v, {nullptr, 0, 63, 0}, {-1, 5, false, 0});
   EXPECT_GT(s.valid, w * h * 9 / 10);
   // The finest level's case: a whole-pixel prior of half size, radius 1, sub-pixel and uniqueness.
@@ -192,7 +174,7 @@ TEST(OpenclMatch, EveryShdWindowCensusWindowAndWordCount) {
                         {9, CensusKind::Census, {1, 5, 7}}};
   std::uint32_t seed = 300;
   for (const Case& c : cases) {
-    const Views v = views(*rt, make_pair(w, h, ++seed, 6), c.census_window, c.kind);
+    const Views v = views(*rt, shifted_pair(w, h, ++seed, 6), c.census_window, c.kind);
     ASSERT_EQ(v.left.host.words, detail::census_words(c.census_window));
     for (int a : c.shd_windows) {
       const int dir = (a / 2) % 2 == 0 ? -1 : +1;
@@ -205,7 +187,7 @@ TEST(OpenclMatch, EveryShdWindowCensusWindowAndWordCount) {
 TEST(OpenclMatch, BothPopcountForms) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
   const int w = 83, h = 29;
-  const Pair pair = make_pair(w, h, 41, 5);
+  const ShiftedPair pair = shifted_pair(w, h, 41, 5);
   for (int census_window : {5, 9}) {  // 1 and 3 words
     const Views v = views(*rt, pair, census_window);
     for (Popcount popcount : {Popcount::Builtin, Popcount::Swar}) {
@@ -218,7 +200,7 @@ TEST(OpenclMatch, BothPopcountForms) {
 TEST(OpenclMatch, SubpixelAndUniquenessAllCombinations) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
   const int w = 90, h = 33;
-  const Views v = views(*rt, make_pair(w, h, 21, 5), 5);
+  const Views v = views(*rt, shifted_pair(w, h, 21, 5), 5);
   long valid_without_uniqueness = 0;
   for (bool subpixel : {false, true})
     for (int uniqueness : {0, 15, 60}) {
@@ -252,7 +234,7 @@ TEST(OpenclMatch, RandomCodesWithManyTies) {
 TEST(OpenclMatch, NegativeMinimumDisparity) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
   const int w = 83, h = 27;
-  const Views v = views(*rt, make_pair(w, h, 31, -7), 5, CensusKind::ModifiedCensus);
+  const Views v = views(*rt, shifted_pair(w, h, 31, -7), 5, CensusKind::ModifiedCensus);
   for (int dir : {-1, +1}) {
     const Stats s = expect_same(*rt, v, {nullptr, -20, 10, 0}, {dir, 5, true, 15});
     EXPECT_GT(s.valid, w * h / 2);
@@ -262,7 +244,7 @@ TEST(OpenclMatch, NegativeMinimumDisparity) {
 TEST(OpenclMatch, RangeNearlyAsWideAsTheImage) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
   const int w = 40, h = 11;
-  const Views v = views(*rt, make_pair(w, h, 41, 9), 5);
+  const Views v = views(*rt, shifted_pair(w, h, 41, 9), 5);
   for (int dir : {-1, +1})
     for (int a : {1, 5, 9}) expect_same(*rt, v, {nullptr, 0, 38, 0}, {dir, a, true, 15});
 }
@@ -271,7 +253,7 @@ TEST(OpenclMatch, RangesBeyondTheImageLeaveBorderPixelsInvalid) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
   // Only disparities 50..60 on a 56-wide image: most pixels have no candidate at all.
   const int w = 56, h = 9;
-  const Views v = views(*rt, make_pair(w, h, 43, 2), 5);
+  const Views v = views(*rt, shifted_pair(w, h, 43, 2), 5);
   for (int dir : {-1, +1}) {
     const Stats s = expect_same(*rt, v, {nullptr, 50, 60, 0}, {dir, 5, true, 15});
     EXPECT_GT(s.valid, 0);
@@ -290,7 +272,7 @@ TEST(OpenclMatch, RangesByTheRuleAtAwkwardSizesAndPriorSizes) {
   int radius = 0;
   for (auto [w, h] : awkward_sizes()) {
     if (w * h > 100000) w = 181, h = 67;
-    const Views v = views(*rt, make_pair(w, h, ++seed, 4), 5);
+    const Views v = views(*rt, shifted_pair(w, h, ++seed, 4), 5);
     for (bool ceil_half : {true, false}) {
       const int cw = ceil_half ? (w + 1) / 2 : w / 2, ch = ceil_half ? (h + 1) / 2 : h / 2;
       if (cw == 0 || ch == 0) continue;
@@ -306,7 +288,7 @@ TEST(OpenclMatch, SmoothPriorLikeTheFinestLevel) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
   // A slanted surface seen through the pyramid: prior = a plane at half resolution.
   const int w = 150, h = 60;
-  const Views v = views(*rt, make_pair(w, h, 61, 8), 5);
+  const Views v = views(*rt, shifted_pair(w, h, 61, 8), 5);
   Plane<std::int16_t> prior((w + 1) / 2, (h + 1) / 2);
   for (int y = 0; y < prior.height(); ++y)
     for (int x = 0; x < prior.width(); ++x) prior.at(x, y) = static_cast<std::int16_t>(16 * (2 + x / 12 + y / 9));
@@ -322,7 +304,7 @@ TEST(OpenclMatch, GpuAndCpuWorkLayouts) {
   // Both layouts on any device: 1 row per work-item with unrolled loops and 16 x 4 work-groups
   // (GPUs), 16 rows per work-item (CPU devices: a height that cuts the last strip short).
   const int w = 45, h = 23;
-  const Views v = views(*rt, make_pair(w, h, 71, 4), 5);
+  const Views v = views(*rt, shifted_pair(w, h, 71, 4), 5);
   const Plane<std::int16_t> prior = random_disparity((w + 1) / 2, (h + 1) / 2, 72, 0, 16 * 10, 0.2, true);
   for (Layout layout : {Layout::Gpu, Layout::Cpu}) {
     expect_same(*rt, v, {nullptr, 0, 20, 0}, {-1, 5, true, 15}, Popcount::Builtin, layout);
@@ -332,7 +314,7 @@ TEST(OpenclMatch, GpuAndCpuWorkLayouts) {
 
 TEST(OpenclMatch, BadArgumentsAreClearErrors) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
-  const Views v = views(*rt, make_pair(20, 6, 81, 2), 5);
+  const Views v = views(*rt, shifted_pair(20, 6, 81, 2), 5);
   DevicePlane<std::int16_t> out;
   out.reset(*rt, 20, 6);
   const auto run = [&](const MatchConfig& config, DevicePlane<std::int16_t>& dst) {

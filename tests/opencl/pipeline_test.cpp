@@ -10,47 +10,13 @@
 
 #include "mctstereo/matcher.hpp"
 #include "opencl_test_util.hpp"
-#include "test_util.hpp"
+#include "pipeline_cases.hpp"
 
 namespace mctstereo::test {
 namespace {
 
-// A textured pair with a smooth disparity field, so that the coarse-to-fine path has real priors.
-struct Pair {
-  Plane<std::uint8_t> left, right;
-  ImageView left_view() const { return {left.row(0), left.width(), left.height(), left.stride(), PixelFormat::Gray8}; }
-  ImageView right_view() const {
-    return {right.row(0), right.width(), right.height(), right.stride(), PixelFormat::Gray8};
-  }
-};
-
-Pair make_pair(int w, int h, int max_disp, std::uint32_t seed) {
-  Pair p{random_texture(w, h, seed), Plane<std::uint8_t>(w, h)};
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const int d = (max_disp * (x + 2 * y)) / (w + 2 * h + 1);
-      p.right.at(x, y) = p.left.at(std::min(x + d, w - 1), y);
-    }
-  return p;
-}
-
 // The device the tests run on, as MatcherOptions::device names it.
 std::string device_of(const detail::opencl::Runtime& rt) { return std::to_string(rt.device().index); }
-
-std::vector<std::int16_t> pixels(MapView<const std::int16_t> view) {
-  std::vector<std::int16_t> out;
-  for (int y = 0; y < view.height; ++y) out.insert(out.end(), view.row(y), view.row(y) + view.width);
-  return out;
-}
-
-std::string describe_difference(const std::vector<std::int16_t>& a, const std::vector<std::int16_t>& b, int w) {
-  if (a.size() != b.size()) return "sizes differ";
-  for (std::size_t i = 0; i < a.size(); ++i)
-    if (a[i] != b[i])
-      return "(" + std::to_string(i % w) + ", " + std::to_string(i / w) + "): " + std::to_string(a[i]) + " vs " +
-             std::to_string(b[i]);
-  return {};
-}
 
 struct Maps {
   std::vector<std::int16_t> left, right;
@@ -69,7 +35,7 @@ Maps run(const ImageView& left, const ImageView& right, const StereoParams& para
 
 // opencl equals cpu on the pair: the left map alone (the right view's refinement stops at the LR
 // check) and both maps with compute_right.
-void expect_equal_to_cpu(const Pair& pair, const StereoParams& params, const std::string& device) {
+void expect_equal_to_cpu(const StereoPair& pair, const StereoParams& params, const std::string& device) {
   const int w = pair.left.width();
   for (bool right : {false, true}) {
     const Maps cpu = run(pair.left_view(), pair.right_view(), params, Backend::Cpu, "", right);
@@ -79,100 +45,24 @@ void expect_equal_to_cpu(const Pair& pair, const StereoParams& params, const std
   }
 }
 
-struct Case {
-  std::string name;
-  StereoParams params;
-  int w, h;
-};
-
-// Every preset, then the cases where coarse to fine, refinement or sizes are awkward. One test
-// each: a case builds its own kernels (on PoCL, a fraction of a second per program).
-std::vector<Case> cases() {
-  std::vector<Case> out;
-  for (const std::string& name : preset_names()) {
-    StereoParams p = preset(name);
-    p.num_disparities = 24;
-    out.push_back({name, p, 97, 61});
-  }
-  StereoParams neg = preset("balanced");
-  neg.min_disparity = -7;
-  neg.num_disparities = 30;
-  out.push_back({"negative_min", neg, 81, 33});
-  StereoParams wide = preset("quality");
-  wide.num_disparities = 38;
-  out.push_back({"range_nearly_image_width", wide, 40, 20});
-  StereoParams scaled = preset("realtime");
-  scaled.working_scale = 2;
-  scaled.num_disparities = 32;
-  out.push_back({"working_scale_2", scaled, 75, 45});
-  StereoParams scaled4 = preset("balanced");
-  scaled4.working_scale = 4;
-  scaled4.pyramid_levels = 2;
-  scaled4.min_disparity = -5;
-  scaled4.num_disparities = 40;
-  out.push_back({"working_scale_4_negative_min", scaled4, 130, 66});
-  StereoParams unique = preset("balanced");
-  unique.uniqueness_ratio = 10;
-  unique.fill = FillMode::Nearest;
-  unique.census = CensusKind::ModifiedCensus;
-  unique.census_window = 7;
-  unique.mct_kernel = MeanKernel::Box;
-  out.push_back({"uniqueness_mct7_box_nearest", unique, 64, 40});
-  StereoParams finest = preset("balanced");
-  finest.refine_all_levels = false;
-  finest.speckle_size = 400;  // speckle removal at the finest level only, large regions
-  finest.num_disparities = 24;
-  out.push_back({"finest_only_large_speckles", finest, 90, 50});
-  StereoParams plain = preset("balanced");
-  plain.median_size = 0;
-  plain.post_median_size = 0;
-  plain.lr_check = false;
-  plain.speckle_size = 0;
-  plain.fill = FillMode::None;
-  plain.shd_window = 1;
-  plain.coarse_shd_window = 1;
-  plain.num_disparities = 20;
-  out.push_back({"no_refinement_hamming", plain, 50, 30});
-  StereoParams tiny = preset("realtime");
-  tiny.num_disparities = 4;
-  out.push_back({"tiny_17x5", tiny, 17, 5});
-  StereoParams single = tiny;
-  single.num_disparities = 1;
-  out.push_back({"one_column", single, 1, 64});
-  out.push_back({"one_row", tiny, 64, 1});
-  StereoParams odd = preset("mr-mct-5x5");
-  odd.num_disparities = 21;
-  out.push_back({"odd_131x37", odd, 131, 37});
-  return out;
-}
-
-// Test logs name the case, not its bytes.
-void PrintTo(const Case& c, std::ostream* os) { *os << c.name << " " << c.w << "x" << c.h; }
-
-class OpenclPipelineCase : public ::testing::TestWithParam<Case> {};
+class OpenclPipelineCase : public ::testing::TestWithParam<PipelineCase> {};
 
 TEST_P(OpenclPipelineCase, EqualsCpuBitForBit) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
-  const Case& c = GetParam();
-  const int max_disp = c.params.max_disparity() > 0 ? std::min(c.params.max_disparity(), c.w / 2) : 0;
-  expect_equal_to_cpu(make_pair(c.w, c.h, max_disp, 11), c.params, device_of(*rt));
+  const PipelineCase& c = GetParam();
+  expect_equal_to_cpu(textured_pair(c.w, c.h, c.max_disparity(), 11), c.params, device_of(*rt));
 }
 
-std::string case_name(const ::testing::TestParamInfo<Case>& info) {
-  std::string name = info.param.name;
-  for (char& ch : name)
-    if (ch == '-') ch = '_';
-  return name;
-}
-
-INSTANTIATE_TEST_SUITE_P(PresetsAndAwkwardCases, OpenclPipelineCase, ::testing::ValuesIn(cases()), case_name);
+// One test each: a case builds its own kernels (on PoCL, a fraction of a second per program).
+INSTANTIATE_TEST_SUITE_P(PresetsAndAwkwardCases, OpenclPipelineCase, ::testing::ValuesIn(pipeline_cases()),
+                         [](const ::testing::TestParamInfo<PipelineCase>& info) { return info.param.id(); });
 
 // Colour views whose channels differ (so the conversion weights matter), in rows longer than the
 // pixels, as RGB on the left and BGR on the right.
 TEST(OpenclPipeline, ColourInputWithPaddedRowsEqualsCpu) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
   const int w = 71, h = 35, stride = 3 * w + 7;
-  const Pair pair = make_pair(w, h, 12, 5);
+  const StereoPair pair = textured_pair(w, h, 12, 5);
   const Plane<std::uint8_t> tint = random_texture(w, h, 6);
   std::vector<std::uint8_t> rgb(static_cast<std::size_t>(stride) * h, 0xee), bgr(rgb.size(), 0xee);
   for (int y = 0; y < h; ++y)
@@ -211,7 +101,7 @@ TEST(OpenclPipeline, FramesAndMatchersOnOneDeviceStayExact) {
   Matcher a_cpu(80, 48, pa, Backend::Cpu), b_cpu(66, 40, pb, Backend::Cpu);
   for (std::uint32_t seed : {1u, 2u, 3u}) {
     SCOPED_TRACE(seed);
-    const Pair pair_a = make_pair(80, 48, 15, seed), pair_b = make_pair(66, 40, 20, seed + 10);
+    const StereoPair pair_a = textured_pair(80, 48, 15, seed), pair_b = textured_pair(66, 40, 20, seed + 10);
     a.compute(pair_a.left_view(), pair_a.right_view());
     b.compute(pair_b.left_view(), pair_b.right_view());
     a_cpu.compute(pair_a.left_view(), pair_a.right_view());
@@ -228,7 +118,7 @@ TEST(OpenclPipeline, FloatMapAndInvalidValueAsCpu) {
   p.num_disparities = 20;
   p.fill = FillMode::None;
   p.uniqueness_ratio = 30;  // leaves invalid pixels
-  const Pair pair = make_pair(120, 40, 10, 9);
+  const StereoPair pair = textured_pair(120, 40, 10, 9);
   MatcherOptions options;
   options.device = device_of(*rt);
   Matcher ocl(120, 40, p, Backend::OpenCL, options), cpu(120, 40, p, Backend::Cpu);
@@ -250,7 +140,7 @@ TEST(OpenclPipeline, FloatMapAndInvalidValueAsCpu) {
     }
   EXPECT_GT(invalid, 0);
   // The float map follows the next frame too.
-  const Pair other = make_pair(120, 40, 10, 10);
+  const StereoPair other = textured_pair(120, 40, 10, 10);
   ocl.compute(other.left_view(), other.right_view());
   cpu.compute(other.left_view(), other.right_view());
   for (int y = 0; y < 40; ++y)
@@ -269,7 +159,7 @@ TEST(OpenclPipeline, TimingsNameTheKernelsAndTheHostSteps) {
   Matcher m(64, 32, p, Backend::OpenCL, options);
   EXPECT_NE(m.device_name().find(rt->device().name), std::string::npos) << m.device_name();
   EXPECT_TRUE(m.notice().empty());
-  const Pair pair = make_pair(64, 32, 8, 4);
+  const StereoPair pair = textured_pair(64, 32, 8, 4);
   m.compute(pair.left_view(), pair.right_view());
   std::vector<std::string> labels;
   for (const StageTime& t : m.timings()) labels.push_back(t.stage);
@@ -370,19 +260,9 @@ TEST(OpenclPipeline, ImageTooLargeForTheDeviceIsAClearError) {
 
 TEST(OpenclPipeline, RejectsWrongInputAsCpu) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
-  StereoParams p = preset("realtime");
-  p.num_disparities = 16;
   MatcherOptions options;
   options.device = device_of(*rt);
-  Matcher m(64, 32, p, Backend::OpenCL, options);
-  std::vector<std::uint8_t> px(64 * 32);
-  const ImageView good{px.data(), 64, 32, 64, PixelFormat::Gray8};
-  EXPECT_THROW(m.compute({px.data(), 63, 32, 64, PixelFormat::Gray8}, good), std::invalid_argument);
-  EXPECT_THROW(m.compute(good, {nullptr, 64, 32, 64, PixelFormat::Gray8}), std::invalid_argument);
-  EXPECT_THROW(m.compute(good, {px.data(), 64, 32, 32, PixelFormat::Gray8}), std::invalid_argument);
-  StereoParams bad = p;
-  bad.num_disparities = 65;
-  EXPECT_THROW(Matcher(64, 32, bad, Backend::OpenCL, options), std::invalid_argument);
+  expect_rejects_wrong_input(Backend::OpenCL, options);
 }
 
 }  // namespace

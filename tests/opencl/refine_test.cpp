@@ -5,8 +5,6 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <initializer_list>
-#include <random>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -25,106 +23,6 @@ namespace reference = detail::reference;
 namespace ocl = detail::opencl;
 
 constexpr std::int16_t I = kInvalid;
-
-// What every element of a fresh device plane holds: a value no stage would produce from the test
-// maps (a large disparity, and as float bits 1.9e35).
-constexpr std::int16_t kMarker16 = 0x7a7a;
-constexpr std::uint32_t kMarker32 = 0x7a7a7a7a;
-
-template <typename T>
-T marker() {
-  if constexpr (sizeof(T) == 2) {
-    return kMarker16;
-  } else {
-    T v;
-    std::memcpy(&v, &kMarker32, sizeof v);
-    return v;
-  }
-}
-
-// A w x h device plane with every element (padding and slack included) set to the marker.
-template <typename T>
-DevicePlane<T> marked_plane(Runtime& rt, int w, int h) {
-  DevicePlane<T> p;
-  p.reset(rt, w, h);
-  const std::vector<T> fill(p.bytes() / sizeof(T), marker<T>());
-  rt.queue().enqueueWriteBuffer(p.buffer, CL_TRUE, 0, p.bytes(), fill.data());
-  return p;
-}
-
-DevicePlane<std::int16_t> to_device(Runtime& rt, const Plane<std::int16_t>& host) {
-  DevicePlane<std::int16_t> p = marked_plane<std::int16_t>(rt, host.width(), host.height());
-  ocl::upload(rt, host, p);
-  return p;
-}
-
-template <typename T>
-Plane<T> to_host(Runtime& rt, const DevicePlane<T>& p) {
-  Plane<T> host(p.width, p.height);
-  ocl::download(rt, p, host);
-  return host;
-}
-
-// "" when every element after the pixels of each row, and the slack after the last row, still
-// holds the marker; otherwise where the first one that does not lies.
-template <typename T>
-std::string padding_intact(Runtime& rt, const DevicePlane<T>& p) {
-  std::vector<T> all(p.bytes() / sizeof(T));
-  rt.queue().enqueueReadBuffer(p.buffer, CL_TRUE, 0, p.bytes(), all.data());
-  const T m = marker<T>();
-  for (std::size_t i = 0; i < all.size(); ++i) {
-    const int x = static_cast<int>(i % p.stride), y = static_cast<int>(i / p.stride);
-    if (y < p.height && x < p.width) continue;
-    if (std::memcmp(&all[i], &m, sizeof(T)) != 0)
-      return "element " + std::to_string(x) + " of row " + std::to_string(y) + " was written";
-  }
-  return {};
-}
-
-std::vector<std::int16_t> pixels(const Plane<std::int16_t>& p) {
-  std::vector<std::int16_t> v;
-  for (int y = 0; y < p.height(); ++y)
-    for (int x = 0; x < p.width(); ++x) v.push_back(p.at(x, y));
-  return v;
-}
-
-Plane<std::int16_t> make_map(int w, int h, std::initializer_list<std::int16_t> values) {
-  Plane<std::int16_t> p(w, h);
-  auto it = values.begin();
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) p.at(x, y) = *it++;
-  return p;
-}
-
-int count_invalid(const Plane<std::int16_t>& p) {
-  int n = 0;
-  for (int y = 0; y < p.height(); ++y)
-    for (int x = 0; x < p.width(); ++x) n += p.at(x, y) == kInvalid;
-  return n;
-}
-
-// The map kinds the comparisons run on: (invalid fraction, whole pixels or fractional Q4).
-struct MapKind {
-  double invalid;
-  bool whole;
-};
-constexpr MapKind kMapKinds[] = {{0.0, false}, {0.1, false}, {0.1, true}, {0.6, true}, {1.0, false}};
-
-// Piecewise constant disparities (steps every few pixels) with sub-pixel noise that crosses the
-// rounding point (16 k + 7 vs 16 k + 8) and 5 % invalid pixels: a map like a real one.
-Plane<std::int16_t> smooth_disparity(int w, int h, std::uint32_t seed, int base_q4, int step_px, int noise_q4) {
-  Plane<std::int16_t> p(w, h);
-  std::mt19937 rng(seed);
-  std::uniform_int_distribution<int> noise(-noise_q4, noise_q4), invalid(0, 19), level(0, 5);
-  for (int y = 0; y < h; ++y) {
-    int v = base_q4;
-    for (int x = 0; x < w; ++x) {
-      if (x % step_px == 0) v = base_q4 + 16 * level(rng) + 8 * (level(rng) % 2);
-      p.at(x, y) = invalid(rng) == 0 ? kInvalid : static_cast<std::int16_t>(v + noise(rng));
-    }
-  }
-  return p;
-}
 
 // ------------------------------------------------------------------------------------------
 // Median.
@@ -146,7 +44,7 @@ TEST(OpenclRefine, MedianKnownAnswer) {
                                                                     10, 10, 10, 20, 20,  //
                                                                     10, I, 10, 20, 20,   //
                                                                     30, I, 20, 20, 20}));
-  EXPECT_EQ(padding_intact(*rt, d_dst), "");
+  EXPECT_EQ(padding_difference(*rt, d_dst), "");
 }
 
 TEST(OpenclRefine, MedianMatchesReference) {
@@ -163,7 +61,7 @@ TEST(OpenclRefine, MedianMatchesReference) {
         ocl::median_filter(*rt, d_src, k, d_dst);
         ASSERT_EQ(first_difference(expected, to_host(*rt, d_dst)), "")
             << w << "x" << h << " k " << k << " invalid " << kind.invalid;
-        ASSERT_EQ(padding_intact(*rt, d_dst), "") << w << "x" << h << " k " << k;
+        ASSERT_EQ(padding_difference(*rt, d_dst), "") << w << "x" << h << " k " << k;
       }
     }
   }
@@ -207,7 +105,7 @@ TEST(OpenclRefine, LrCheckKnownAnswer) {
   EXPECT_EQ(pixels(to_host(*rt, dst)), (std::vector<std::int16_t>{I, 16, 16, 32, I, 24, I, I}));
   ocl::lr_check(*rt, right, left, +1, 16, dst);
   EXPECT_EQ(pixels(to_host(*rt, dst)), (std::vector<std::int16_t>{16, 16, 32, 24, I, I, I, I}));
-  EXPECT_EQ(padding_intact(*rt, dst), "");
+  EXPECT_EQ(padding_difference(*rt, dst), "");
 }
 
 TEST(OpenclRefine, LrCheckRejectsPartnersOutsideTheImage) {
@@ -237,12 +135,7 @@ TEST(OpenclRefine, LrCheckMatchesReference) {
   std::uint32_t seed = 200;
   for (auto [w, h] : awkward_sizes()) {
     for (const MapKind& kind : kMapKinds) {
-      // Disparities up to 40 px against widths down to 1, so partners fall both inside and
-      // outside the image; a narrow value range makes agreement within the threshold common.
-      const auto src = random_disparity(w, h, ++seed, -160, 640, kind.invalid, kind.whole);
-      const auto other = random_disparity(w, h, ++seed, -160, 640, kind.invalid / 2, kind.whole);
-      const auto narrow = random_disparity(w, h, ++seed, 0, 40, kind.invalid, kind.whole);
-      const auto narrow_other = random_disparity(w, h, ++seed, 0, 40, kind.invalid, kind.whole);
+      const auto [src, other, narrow, narrow_other] = lr_check_maps(w, h, seed, kind);
       const auto d_src = to_device(*rt, src), d_other = to_device(*rt, other);
       const auto d_narrow = to_device(*rt, narrow), d_narrow_other = to_device(*rt, narrow_other);
       auto d_dst = marked_plane<std::int16_t>(*rt, w, h);
@@ -259,7 +152,7 @@ TEST(OpenclRefine, LrCheckMatchesReference) {
           }
         }
       }
-      ASSERT_EQ(padding_intact(*rt, d_dst), "") << w << "x" << h;
+      ASSERT_EQ(padding_difference(*rt, d_dst), "") << w << "x" << h;
     }
   }
 }
@@ -270,10 +163,7 @@ TEST(OpenclRefine, LrCheckMatchesReferenceOnSmoothMaps) {
   auto sizes = awkward_sizes();
   sizes.push_back({300, 2});
   for (auto [w, h] : sizes) {
-    // Positive and negative disparities, narrow and wide steps, and values at the int16 limits
-    // (the rounding of 32760 must not overflow; partners of huge disparities leave the image).
-    for (auto [base, step] : {std::pair{16 * 3, 13}, {16 * -9, 40}, {16 * 20, 7}, {32760 - 16 * 6, 50},
-                              {-32768 + 16 * 1, 50}}) {
+    for (auto [base, step] : kLrCheckMapShapes) {
       const auto a = smooth_disparity(w, h, ++seed, base, step, 9);
       const auto b = smooth_disparity(w, h, ++seed, base, step, 9);
       const auto d_a = to_device(*rt, a), d_b = to_device(*rt, b);
@@ -300,25 +190,13 @@ TEST(OpenclRefine, LrCheckMatchesReferenceOnSmoothMaps) {
 
 TEST(OpenclRefine, FillKnownAnswers) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
-  struct Case {
-    FillMode mode;
-    std::vector<std::int16_t> in, out;
-  };
-  const Case cases[] = {
-      {FillMode::None, {5, I, I, I, 9}, {5, I, I, I, 9}},
-      {FillMode::Nearest, {5, I, I, I, 9}, {5, 5, 5, 9, 9}},
-      {FillMode::Nearest, {9, I, I, I, I, 5}, {9, 9, 9, 5, 5, 5}},
-      {FillMode::NearestLower, {9, I, -3, I, I, 7}, {9, -3, -3, -3, -3, 7}},
-      {FillMode::Nearest, {I, I, 7, I, 4, I}, {7, 7, 7, 4, 4, 4}},
-      {FillMode::NearestLower, {I, I, I}, {I, I, I}},
-  };
-  for (const Case& c : cases) {
+  for (const FillCase& c : fill_known_answers()) {
     Plane<std::int16_t> host(static_cast<int>(c.in.size()), 1);
     std::copy(c.in.begin(), c.in.end(), host.row(0));
     auto d = to_device(*rt, host);
     ocl::fill_invalid(*rt, d, c.mode);
     EXPECT_EQ(pixels(to_host(*rt, d)), c.out) << "mode " << static_cast<int>(c.mode) << ", case starting " << c.in[0];
-    EXPECT_EQ(padding_intact(*rt, d), "");
+    EXPECT_EQ(padding_difference(*rt, d), "");
   }
 }
 
@@ -338,7 +216,7 @@ TEST(OpenclRefine, FillInvalidMatchesReference) {
         ocl::fill_invalid(*rt, d, mode);
         ASSERT_EQ(first_difference(expected, to_host(*rt, d)), "")
             << w << "x" << h << " mode " << static_cast<int>(mode) << " invalid " << invalid;
-        ASSERT_EQ(padding_intact(*rt, d), "") << w << "x" << h;
+        ASSERT_EQ(padding_difference(*rt, d), "") << w << "x" << h;
       }
     }
   }
@@ -365,7 +243,7 @@ TEST(OpenclRefine, UpscaleKnownValues) {
       const int want = sx == 0 ? 16 * 6 : sx == 1 ? kInvalid : std::min(32 * sx, 16 * 50);
       ASSERT_EQ(dst.at(x, y), want) << "(" << x << ", " << y << ")";
     }
-  EXPECT_EQ(padding_intact(*rt, d_dst), "");
+  EXPECT_EQ(padding_difference(*rt, d_dst), "");
 }
 
 TEST(OpenclRefine, UpscaleMatchesReference) {
@@ -388,7 +266,7 @@ TEST(OpenclRefine, UpscaleMatchesReference) {
           ASSERT_EQ(first_difference(expected, to_host(*rt, d_dst)), "")
               << "factor " << factor << " " << sw << "x" << sh << " -> " << dw << "x" << dh << " clamp " << lo_q4
               << ".." << hi_q4;
-          ASSERT_EQ(padding_intact(*rt, d_dst), "") << "factor " << factor << " " << dw << "x" << dh;
+          ASSERT_EQ(padding_difference(*rt, d_dst), "") << "factor " << factor << " " << dw << "x" << dh;
         }
       }
     }
@@ -437,8 +315,8 @@ TEST(OpenclRefine, ToOutputMatchesTheMatcherConventions) {
             }
           }
         }
-        ASSERT_EQ(padding_intact(*rt, d_q4), "") << w << "x" << h;
-        ASSERT_EQ(padding_intact(*rt, d_float), "") << w << "x" << h;
+        ASSERT_EQ(padding_difference(*rt, d_q4), "") << w << "x" << h;
+        ASSERT_EQ(padding_difference(*rt, d_float), "") << w << "x" << h;
       }
     }
   }

@@ -1,0 +1,526 @@
+#include "calibration.hpp"
+
+#include <opencv2/calib3d.hpp>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+
+#include "depth_files.hpp"
+#include "errors.hpp"
+#include "output_files.hpp"
+
+namespace mctstereo::app {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string trimmed(const std::string& text) {
+  const char* const space = " \t\r\n\f\v";
+  const std::size_t begin = text.find_first_not_of(space);
+  if (begin == std::string::npos) return "";
+  return text.substr(begin, text.find_last_not_of(space) - begin + 1);
+}
+
+std::string lower(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(), [](unsigned char c) { return std::tolower(c); });
+  return text;
+}
+
+std::string number_text(double v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+std::string size_text(int width, int height) { return std::to_string(width) + "x" + std::to_string(height); }
+
+// Errors about one file: "calibration 'FILE': MESSAGE".
+struct FileErrors {
+  std::string path;
+
+  [[noreturn]] void fail(const std::string& message) const {
+    throw RuntimeError("calibration " + in_quotes(path) + ": " + message);
+  }
+  [[noreturn]] void missing(const std::string& key, const std::string& why = "") const {
+    fail("key '" + key + "' is missing" + (why.empty() ? "" : " (" + why + ")"));
+  }
+  [[noreturn]] void malformed(const std::string& key, const std::string& what) const {
+    fail("key '" + key + "' " + what);
+  }
+};
+
+std::string read_text(const std::string& path) {
+  const std::string what = "cannot read calibration " + in_quotes(path) + ": ";
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (!fs::exists(status)) throw RuntimeError(what + "no such file");
+  if (fs::is_directory(status)) throw RuntimeError(what + "it is a folder, not a file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw RuntimeError(what + std::strerror(errno));
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw RuntimeError(what + "read error");
+  if (trimmed(text).empty()) throw RuntimeError(what + "the file is empty");
+  return text;
+}
+
+// A whole string as a number; nullopt when it is anything else.
+std::optional<double> parse_number(const std::string& text) {
+  const std::string t = trimmed(text);
+  if (t.empty()) return std::nullopt;
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(t.c_str(), &end);
+  if (end != t.c_str() + t.size() || errno == ERANGE || !std::isfinite(v)) return std::nullopt;
+  return v;
+}
+
+// ---- Middlebury calib.txt ------------------------------------------------------------------------
+
+// "[a b c; d e f; g h i]" as a 3 x 3 matrix.
+cv::Matx33d parse_middlebury_matrix(const std::string& key, const std::string& value, const FileErrors& errors) {
+  const std::string t = trimmed(value);
+  const std::string expected = "is not a 3x3 matrix [f 0 cx; 0 f cy; 0 0 1]: '" + t + "'";
+  if (t.size() < 2 || t.front() != '[' || t.back() != ']') errors.malformed(key, expected);
+  std::vector<std::string> rows;
+  std::stringstream body(t.substr(1, t.size() - 2));
+  for (std::string row; std::getline(body, row, ';');) rows.push_back(row);
+  if (rows.size() != 3) errors.malformed(key, expected);
+  cv::Matx33d m;
+  for (int r = 0; r < 3; ++r) {
+    std::istringstream words(rows[r]);
+    std::vector<std::string> entries{std::istream_iterator<std::string>(words), std::istream_iterator<std::string>()};
+    if (entries.size() != 3) errors.malformed(key, expected);
+    for (int c = 0; c < 3; ++c) {
+      const std::optional<double> v = parse_number(entries[c]);
+      if (!v) errors.malformed(key, expected);
+      m(r, c) = *v;
+    }
+  }
+  return m;
+}
+
+Calibration read_middlebury(const std::string& path, const std::string& text) {
+  const FileErrors errors{path};
+  std::map<std::string, std::string> values;
+  std::istringstream lines(text);
+  int line_number = 0;
+  for (std::string line; std::getline(lines, line);) {
+    ++line_number;
+    line = trimmed(line);
+    if (line.empty() || line[0] == '#') continue;
+    const std::size_t eq = line.find('=');
+    if (eq == std::string::npos)
+      errors.fail("line " + std::to_string(line_number) + " is not 'key=value': '" + line + "'");
+    values[trimmed(line.substr(0, eq))] = trimmed(line.substr(eq + 1));
+  }
+  const auto number = [&](const std::string& key) -> std::optional<double> {
+    const auto it = values.find(key);
+    if (it == values.end()) return std::nullopt;
+    const std::optional<double> v = parse_number(it->second);
+    if (!v) errors.malformed(key, "is not a number: '" + it->second + "'");
+    return v;
+  };
+  const auto integer = [&](const std::string& key) -> int {
+    const std::optional<double> v = number(key);
+    if (!v) return 0;
+    if (*v != std::floor(*v) || *v < 0 || *v > 1e9)
+      errors.malformed(key, "is not a non-negative whole number: '" + values[key] + "'");
+    return static_cast<int>(*v);
+  };
+
+  if (!values.count("cam0")) errors.missing("cam0", "the left camera matrix [f 0 cx; 0 f cy; 0 0 1]");
+  const cv::Matx33d cam0 = parse_middlebury_matrix("cam0", values["cam0"], errors);
+  const std::optional<double> baseline = number("baseline");
+  if (!baseline) errors.missing("baseline", "the distance between the cameras, in millimetres");
+  std::optional<double> doffs = number("doffs");
+  if (!doffs) {
+    // doffs is the difference of the principal points, which cam1 gives.
+    if (!values.count("cam1")) errors.missing("doffs", "or 'cam1' to compute it from");
+    doffs = parse_middlebury_matrix("cam1", values["cam1"], errors)(0, 2) - cam0(0, 2);
+  } else if (values.count("cam1")) {
+    (void)parse_middlebury_matrix("cam1", values["cam1"], errors);  // malformed is malformed, even if unused
+  }
+
+  Calibration c;
+  c.source = path;
+  c.geometry.focal = cam0(0, 0);
+  c.geometry.cx = cam0(0, 2);
+  c.geometry.cy = cam0(1, 2);
+  c.geometry.baseline = *baseline;
+  c.geometry.doffs = *doffs;
+  c.geometry.units = "mm";
+  if (!(c.geometry.focal > 0)) errors.malformed("cam0", "has a focal length " + number_text(cam0(0, 0)) + " <= 0");
+  if (!(c.geometry.baseline > 0)) errors.malformed("baseline", "must be positive (is " + number_text(*baseline) + ")");
+  c.width = integer("width");
+  c.height = integer("height");
+  if ((c.width == 0) != (c.height == 0)) errors.missing(c.width == 0 ? "width" : "height", "given with the other");
+  c.ndisp = integer("ndisp");
+  (void)number("vmin");  // checked for form only: the disparity range comes from ndisp
+  (void)number("vmax");
+  return c;
+}
+
+// ---- OpenCV FileStorage -----------------------------------------------------------------------------
+
+class StorageReader {
+ public:
+  StorageReader(const std::string& path, const FileErrors& errors) : errors_(errors) {
+    try {
+      storage_.open(path, cv::FileStorage::READ);
+    } catch (const cv::Exception& e) {
+      errors_.fail("cannot parse it as an OpenCV FileStorage file (YAML, XML, JSON): " + trimmed(e.err));
+    }
+    if (!storage_.isOpened()) errors_.fail("cannot open it as an OpenCV FileStorage file (YAML, XML, JSON)");
+  }
+
+  bool has(const std::string& key) const { return !storage_[key].empty() && !storage_[key].isNone(); }
+
+  // The matrix under `key` as CV_64F, with `rows` x `cols` when those are > 0; empty when absent.
+  cv::Mat matrix(const std::string& key, int rows, int cols) const {
+    if (!has(key)) return {};
+    const cv::FileNode node = storage_[key];
+    cv::Mat m;
+    try {
+      if (node.isMap()) node >> m;
+    } catch (const cv::Exception&) {
+      m.release();
+    }
+    if (m.empty() || m.channels() != 1)
+      errors_.malformed(key, "is not an OpenCV matrix (!!opencv-matrix with rows, cols, dt, data)");
+    m.convertTo(m, CV_64F);
+    if ((rows > 0 && m.rows != rows) || (cols > 0 && m.cols != cols))
+      errors_.malformed(key, "is " + std::to_string(m.rows) + "x" + std::to_string(m.cols) + ", expected " +
+                                 std::to_string(rows) + "x" + std::to_string(cols));
+    for (auto it = m.begin<double>(); it != m.end<double>(); ++it)
+      if (!std::isfinite(*it)) errors_.malformed(key, "has a value that is not a finite number");
+    return m;
+  }
+
+  // A vector of `lengths` elements (any of them) as a column.
+  cv::Mat vector(const std::string& key, std::initializer_list<int> lengths) const {
+    cv::Mat m = matrix(key, 0, 0);
+    if (m.empty()) return m;
+    const int n = static_cast<int>(m.total());
+    if ((m.rows != 1 && m.cols != 1) || std::find(lengths.begin(), lengths.end(), n) == lengths.end()) {
+      std::string known;
+      for (int l : lengths) known += (known.empty() ? "" : ", ") + std::to_string(l);
+      errors_.malformed(key, "is " + std::to_string(m.rows) + "x" + std::to_string(m.cols) + ", expected a vector of " +
+                                 known + " values");
+    }
+    return m.reshape(1, n);
+  }
+
+  std::optional<int> integer(const std::string& key) const {
+    if (!has(key)) return std::nullopt;
+    const cv::FileNode node = storage_[key];
+    if (!node.isInt() && !node.isReal()) errors_.malformed(key, "is not a number");
+    const double v = node.real();
+    if (v != std::floor(v) || v < 0 || v > 1e9) errors_.malformed(key, "is not a non-negative whole number");
+    return static_cast<int>(v);
+  }
+
+  std::optional<std::string> text(const std::string& key) const {
+    if (!has(key)) return std::nullopt;
+    const cv::FileNode node = storage_[key];
+    if (!node.isString()) errors_.malformed(key, "is not a string");
+    return node.string();
+  }
+
+ private:
+  cv::FileStorage storage_;
+  const FileErrors& errors_;
+};
+
+// Rectified geometry of a horizontal pair from its projection matrices (OpenCV's stereoRectify):
+// P1 = [f 0 cx 0; 0 f cy 0; 0 0 1 0], P2 = [f 0 cx2 -f B; 0 f cy 0; 0 0 1 0].
+StereoGeometry geometry_from_projections(const cv::Mat& P1, const cv::Mat& P2, const FileErrors& errors) {
+  StereoGeometry g;
+  g.focal = P1.at<double>(0, 0);
+  g.cx = P1.at<double>(0, 2);
+  g.cy = P1.at<double>(1, 2);
+  if (!(g.focal > 0)) errors.malformed("P1", "has a focal length P1(0,0) = " + number_text(g.focal) + " <= 0");
+  if (!(P2.at<double>(0, 0) > 0))
+    errors.malformed("P2", "has a focal length P2(0,0) = " + number_text(P2.at<double>(0, 0)) + " <= 0");
+  if (P2.at<double>(1, 3) != 0.0)
+    errors.malformed("P2", "describes a vertical pair (P2(1,3) != 0): only left-right pairs are matched");
+  g.baseline = -P2.at<double>(0, 3) / P2.at<double>(0, 0);
+  if (!(g.baseline > 0))
+    errors.malformed("P2", "gives a baseline -P2(0,3)/P2(0,0) = " + number_text(g.baseline) +
+                               " <= 0 (are the left and right cameras swapped?)");
+  g.doffs = P2.at<double>(0, 2) - g.cx;
+  return g;
+}
+
+// The same from Q = [1 0 0 -cx; 0 1 0 -cy; 0 0 0 f; 0 0 1/B doffs/B] (reprojectImageTo3D's matrix).
+StereoGeometry geometry_from_q(const cv::Mat& Q, const FileErrors& errors) {
+  StereoGeometry g;
+  g.cx = -Q.at<double>(0, 3);
+  g.cy = -Q.at<double>(1, 3);
+  g.focal = Q.at<double>(2, 3);
+  if (!(g.focal > 0)) errors.malformed("Q", "has a focal length Q(2,3) = " + number_text(g.focal) + " <= 0");
+  const double inverse_baseline = Q.at<double>(3, 2);
+  if (!(inverse_baseline > 0))
+    errors.malformed("Q", "gives a baseline 1/Q(3,2) that is not positive (Q(3,2) = " + number_text(inverse_baseline) +
+                              "; are the left and right cameras swapped?)");
+  g.baseline = 1.0 / inverse_baseline;
+  g.doffs = Q.at<double>(3, 3) * g.baseline;
+  return g;
+}
+
+// P1, P2 and Q of a rectified geometry, in OpenCV's form (CALIB_ZERO_DISPARITY aside from doffs).
+void projections_of(const StereoGeometry& g, cv::Mat& P1, cv::Mat& P2, cv::Mat& Q) {
+  P1 = (cv::Mat_<double>(3, 4) << g.focal, 0, g.cx, 0, 0, g.focal, g.cy, 0, 0, 0, 1, 0);
+  P2 = (cv::Mat_<double>(3, 4) << g.focal, 0, g.cx + g.doffs, -g.focal * g.baseline, 0, g.focal, g.cy, 0, 0, 0, 1, 0);
+  Q = (cv::Mat_<double>(4, 4) << 1, 0, 0, -g.cx, 0, 1, 0, -g.cy, 0, 0, 0, g.focal, 0, 0, 1.0 / g.baseline,
+       g.doffs / g.baseline);
+}
+
+Calibration read_storage(const std::string& path) {
+  const FileErrors errors{path};
+  const StorageReader file(path, errors);
+  Calibration c;
+  c.source = path;
+
+  // Image size: image_width / image_height, or width / height.
+  const std::string width_key = !file.has("image_width") && !file.has("image_height") &&
+                                        (file.has("width") || file.has("height"))
+                                    ? "width"
+                                    : "image_width";
+  const std::string height_key = width_key == "image_width" ? "image_height" : "height";
+  c.width = file.integer(width_key).value_or(0);
+  c.height = file.integer(height_key).value_or(0);
+  if ((c.width == 0) != (c.height == 0)) errors.missing(c.width == 0 ? width_key : height_key, "given with the other");
+  c.ndisp = file.integer("ndisp").value_or(0);
+
+  // The raw cameras. OpenCV's stereo_calib sample names the camera matrices M1, M2.
+  const std::string k1_key = file.has("K1") || !file.has("M1") ? "K1" : "M1";
+  const std::string k2_key = file.has("K2") || !file.has("M2") ? "K2" : "M2";
+  c.K1 = file.matrix(k1_key, 3, 3);
+  c.D1 = file.vector("D1", {4, 5, 8, 12, 14});
+  c.K2 = file.matrix(k2_key, 3, 3);
+  c.D2 = file.vector("D2", {4, 5, 8, 12, 14});
+  const bool has_intrinsics = !c.K1.empty() || !c.D1.empty() || !c.K2.empty() || !c.D2.empty();
+  if (has_intrinsics) {
+    const std::string why = "K1, D1, K2 and D2 come together";
+    if (c.K1.empty()) errors.missing(k1_key, why);
+    if (c.D1.empty()) errors.missing("D1", why);
+    if (c.K2.empty()) errors.missing(k2_key, why);
+    if (c.D2.empty()) errors.missing("D2", why);
+  }
+  if (file.has("R")) {
+    c.R = file.matrix("R", 0, 0);
+    if (!((c.R.rows == 3 && c.R.cols == 3) || c.R.total() == 3))
+      errors.malformed("R", "is " + std::to_string(c.R.rows) + "x" + std::to_string(c.R.cols) +
+                                ", expected 3x3 (or a 3-vector of Rodrigues angles)");
+  }
+  c.T = file.vector("T", {3});
+  c.R1 = file.matrix("R1", 3, 3);
+  c.R2 = file.matrix("R2", 3, 3);
+  c.P1 = file.matrix("P1", 3, 4);
+  c.P2 = file.matrix("P2", 3, 4);
+  c.Q = file.matrix("Q", 4, 4);
+  if (c.P1.empty() != c.P2.empty()) errors.missing(c.P1.empty() ? "P1" : "P2", "P1 and P2 come together");
+
+  // Whether the images this file is for must be rectified: yes when it holds the raw cameras,
+  // unless it says `rectified: 1` (the images were rectified with it already).
+  const std::optional<int> rectified = file.integer("rectified");
+  if (rectified && *rectified > 1) errors.malformed("rectified", "must be 0 or 1");
+  if (rectified && *rectified == 0 && !has_intrinsics)
+    errors.malformed("rectified", "is 0 but there are no K1, D1, K2, D2 to rectify with");
+  c.needs_rectification = has_intrinsics && rectified.value_or(0) == 0;
+
+  if (c.P1.empty() && has_intrinsics && !c.R.empty() && !c.T.empty()) {
+    // The raw rig only: rectify it as OpenCV does (alpha 0: only valid pixels; zero disparity at infinity).
+    if (c.width == 0) errors.missing(width_key, "rectifying K1, D1, K2, D2, R, T needs the image size");
+    cv::Mat R1, R2, P1, P2, Q;
+    try {
+      cv::stereoRectify(c.K1, c.D1, c.K2, c.D2, cv::Size(c.width, c.height), c.R, c.T, R1, R2, P1, P2, Q,
+                        cv::CALIB_ZERO_DISPARITY, 0.0);
+    } catch (const cv::Exception& e) {
+      errors.fail("cannot rectify K1, D1, K2, D2, R, T: " + trimmed(e.err));
+    }
+    for (cv::Mat* m : {&R1, &R2, &P1, &P2, &Q}) m->convertTo(*m, CV_64F);
+    if (c.R1.empty()) c.R1 = R1;
+    if (c.R2.empty()) c.R2 = R2;
+    c.P1 = P1;
+    c.P2 = P2;
+    if (c.Q.empty()) c.Q = Q;
+  } else if (has_intrinsics && (c.R.empty() != c.T.empty())) {
+    errors.missing(c.R.empty() ? "R" : "T", "R and T come together");
+  }
+
+  if (!c.P1.empty()) {
+    c.geometry = geometry_from_projections(c.P1, c.P2, errors);
+  } else if (!c.Q.empty()) {
+    c.geometry = geometry_from_q(c.Q, errors);
+  } else {
+    errors.missing("P1", "the file needs P1 and P2, or Q, or K1, D1, K2, D2, R and T");
+  }
+  c.geometry.units = file.text("units").value_or("m");
+  if (trimmed(c.geometry.units).empty()) errors.malformed("units", "is empty");
+
+  if (c.needs_rectification) {
+    // Remapping needs each camera's rotation and projection and the size the maps are made for.
+    if (c.R1.empty()) errors.missing("R1", "rectifying needs R1, R2, P1 and P2");
+    if (c.R2.empty()) errors.missing("R2", "rectifying needs R1, R2, P1 and P2");
+    if (c.P1.empty()) errors.missing("P1", "rectifying needs R1, R2, P1 and P2");
+    if (c.width == 0) errors.missing(width_key, "rectifying needs the image size");
+  }
+  return c;
+}
+
+// A line "cam0=...", "cam1=...", "baseline=..." or "doffs=..." makes a file a calib.txt.
+bool looks_like_middlebury(const std::string& text) {
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    const std::size_t eq = line.find('=');
+    if (eq == std::string::npos) continue;
+    const std::string key = trimmed(line.substr(0, eq));
+    if (key == "cam0" || key == "cam1" || key == "baseline" || key == "doffs") return true;
+  }
+  return false;
+}
+
+bool looks_like_storage(const std::string& path, const std::string& text) {
+  const std::string ext = lower(fs::path(path).extension().string());
+  if (ext == ".yml" || ext == ".yaml" || ext == ".xml" || ext == ".json") return true;
+  const std::string start = trimmed(text).substr(0, 5);
+  return start == "%YAML" || start == "<?xml" || start.rfind('{', 0) == 0;
+}
+
+}  // namespace
+
+Calibration read_calibration(const std::string& path) {
+  const std::string text = read_text(path);
+  if (looks_like_middlebury(text)) return read_middlebury(path, text);
+  if (looks_like_storage(path, text)) return read_storage(path);
+  throw RuntimeError("calibration " + in_quotes(path) +
+                     ": unknown format: expected a Middlebury calib.txt (cam0=[...], baseline=...) or an OpenCV "
+                     "FileStorage file (.yml, .yaml, .xml, .json)");
+}
+
+void write_calibration(const std::string& path, const Calibration& calibration) {
+  calibration.geometry.validate();
+  cv::FileStorage file;
+  try {
+    file.open(path, cv::FileStorage::WRITE | cv::FileStorage::FORMAT_YAML);
+  } catch (const cv::Exception& e) {
+    throw RuntimeError("cannot write calibration " + in_quotes(path) + ": " + trimmed(e.err));
+  }
+  if (!file.isOpened()) throw RuntimeError("cannot write calibration " + in_quotes(path));
+  if (calibration.width > 0) {
+    file << "image_width" << calibration.width;
+    file << "image_height" << calibration.height;
+  }
+  file << "units" << calibration.geometry.units;
+  if (calibration.ndisp > 0) file << "ndisp" << calibration.ndisp;
+  const bool has_intrinsics = !calibration.K1.empty();
+  if (has_intrinsics) file << "rectified" << (calibration.needs_rectification ? 0 : 1);
+  const std::pair<const char*, const cv::Mat*> raw[] = {{"K1", &calibration.K1}, {"D1", &calibration.D1},
+                                                        {"K2", &calibration.K2}, {"D2", &calibration.D2},
+                                                        {"R", &calibration.R},   {"T", &calibration.T},
+                                                        {"R1", &calibration.R1}, {"R2", &calibration.R2}};
+  for (const auto& [key, m] : raw)
+    if (!m->empty()) file << key << *m;
+  // The projections are written from the geometry, so flags that changed it are kept.
+  cv::Mat P1, P2, Q;
+  projections_of(calibration.geometry, P1, P2, Q);
+  file << "P1" << P1 << "P2" << P2 << "Q" << Q;
+  file.release();
+}
+
+void check_calibration_fits(const Calibration& calibration, int width, int height, const std::string& image) {
+  if (calibration.width == 0 && calibration.height == 0) return;  // size unknown: flags only
+  if (calibration.width == width && calibration.height == height) return;
+  throw RuntimeError("calibration " + in_quotes(calibration.source) + " is for " +
+                     size_text(calibration.width, calibration.height) + " images but " + image + " is " +
+                     size_text(width, height) +
+                     ": use the calibration of that size (scaling an image scales focal, cx, cy and doffs)");
+}
+
+const CLI::Validator& positive_number() {
+  static const CLI::Validator validator(
+      [](std::string& text) -> std::string {
+        const std::optional<double> v = parse_number(text);
+        return v && *v > 0.0 ? "" : "must be a positive number, not '" + text + "'";
+      },
+      "POSITIVE");
+  return validator;
+}
+
+void CalibrationFlags::add_to(CLI::App& app) {
+  app.add_option("--calib", file_,
+                 "stereo calibration: Middlebury calib.txt, or OpenCV YAML/XML/JSON with P1 P2, Q, or K1 D1 K2 D2 R T");
+  app.add_option("--focal", focal_, "focal length in pixels of the images as given (overrides --calib)")
+      ->check(positive_number());
+  app.add_option("--baseline", baseline_, "distance between the camera centres, in --units (overrides --calib)")
+      ->check(positive_number());
+  app.add_option("--cx", cx_, "principal point x of the left rectified camera, pixels (default (width - 1) / 2)");
+  app.add_option("--cy", cy_, "principal point y, pixels (default (height - 1) / 2)");
+  app.add_option("--doffs", doffs_, "x of the right principal point minus x of the left, pixels (default 0)");
+  app.add_option("--units", units_,
+                 "unit of --baseline and so of depth and X, Y, Z: m, cm, mm, in, ft (default m, or the file's unit; "
+                 "with --calib and no --baseline the file's baseline is converted)");
+}
+
+bool CalibrationFlags::given() const {
+  return !file_.empty() || focal_ || baseline_ || cx_ || cy_ || doffs_ || !units_.empty();
+}
+
+std::optional<Calibration> CalibrationFlags::resolve(int width, int height, const std::string& image) const {
+  if (!given()) return std::nullopt;
+  if (!units_.empty()) (void)millimetres_per_unit(units_);  // UsageError naming an unknown unit
+  Calibration c;
+  if (!file_.empty()) {
+    c = read_calibration(file_);
+    check_calibration_fits(c, width, height, image);
+    if (!baseline_ && !units_.empty() && lower(units_) != lower(c.geometry.units)) {
+      // Converting needs the file's unit to be one we know.
+      try {
+        c.geometry.baseline *= millimetres_per_unit(c.geometry.units) / millimetres_per_unit(units_);
+      } catch (const UsageError&) {
+        throw RuntimeError("calibration " + in_quotes(file_) + ": key 'units': '" + c.geometry.units +
+                           "' cannot be converted to --units " + units_ + " (known: m, cm, mm, in, ft)");
+      }
+      c.geometry.units = units_;
+    }
+  } else {
+    if (!focal_ || !baseline_) {
+      const std::string missing = !focal_ && !baseline_ ? "--focal and --baseline are"
+                                  : !focal_             ? "--focal is"
+                                                        : "--baseline is";
+      throw UsageError("incomplete calibration: " + missing +
+                       " missing (without --calib, a calibration needs --focal and --baseline)");
+    }
+    c.source = "flags";
+    c.geometry.cx = (width - 1) / 2.0;
+    c.geometry.cy = (height - 1) / 2.0;
+    c.geometry.units = "m";
+  }
+  if (focal_) c.geometry.focal = *focal_;
+  if (baseline_) c.geometry.baseline = *baseline_;
+  if (baseline_ && !units_.empty()) c.geometry.units = units_;
+  if (cx_) c.geometry.cx = *cx_;
+  if (cy_) c.geometry.cy = *cy_;
+  if (doffs_) c.geometry.doffs = *doffs_;
+  try {
+    c.geometry.validate();
+  } catch (const std::invalid_argument& e) {
+    throw UsageError(std::string("calibration ") + (file_.empty() ? "flags" : in_quotes(file_)) + ": " + e.what());
+  }
+  return c;
+}
+
+}  // namespace mctstereo::app

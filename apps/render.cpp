@@ -1,0 +1,540 @@
+#include "render.hpp"
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <iterator>
+#include <limits>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "errors.hpp"
+#include "output_files.hpp"
+#include "statistics.hpp"
+
+namespace mctstereo::app {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kRenderFooter = R"(Conventions:
+  Points are in the frame of the camera that saw them: X right, Y down, Z forward (the left
+  rectified camera for clouds of mctstereo), in the cloud's units.
+  The view camera circles the centre of the cloud (the median of its points) and always looks at
+  it. With --yaw 0 --pitch 0 --distance 1 it stands where the original camera stood (the origin),
+  turned towards the centre. --yaw turns it about the vertical axis through the centre (positive:
+  from the left), --pitch about the horizontal one (negative: from above, looking down), and
+  --distance scales its distance to the centre (2: twice as far).
+  The principal point is the centre of the picture; without --focal the focal length fits 99.5 %
+  of the points into it. Each point is a square of --point-size pixels; where points overlap, the
+  nearest one is drawn. Clouds without colours are drawn in gray, lighter where nearer.
+  PLY files: ascii or binary_little_endian, vertex x y z (float or double) with optional red green
+  blue (uchar); other properties and elements are skipped.
+)";
+
+struct Cloud {
+  std::vector<float> xyz;
+  std::vector<std::uint8_t> rgb;  // empty without colours
+  std::size_t size() const { return xyz.size() / 3; }
+};
+
+// ---- PLY --------------------------------------------------------------------------------------
+
+enum class PlyType { Int8, UInt8, Int16, UInt16, Int32, UInt32, Float32, Float64 };
+
+std::optional<PlyType> ply_type(const std::string& name) {
+  if (name == "char" || name == "int8") return PlyType::Int8;
+  if (name == "uchar" || name == "uint8") return PlyType::UInt8;
+  if (name == "short" || name == "int16") return PlyType::Int16;
+  if (name == "ushort" || name == "uint16") return PlyType::UInt16;
+  if (name == "int" || name == "int32") return PlyType::Int32;
+  if (name == "uint" || name == "uint32") return PlyType::UInt32;
+  if (name == "float" || name == "float32") return PlyType::Float32;
+  if (name == "double" || name == "float64") return PlyType::Float64;
+  return std::nullopt;
+}
+
+std::size_t type_size(PlyType type) {
+  switch (type) {
+    case PlyType::Int8:
+    case PlyType::UInt8:
+      return 1;
+    case PlyType::Int16:
+    case PlyType::UInt16:
+      return 2;
+    case PlyType::Int32:
+    case PlyType::UInt32:
+    case PlyType::Float32:
+      return 4;
+    case PlyType::Float64:
+      return 8;
+  }
+  return 1;
+}
+
+struct PlyProperty {
+  std::string name;
+  PlyType type = PlyType::Float32;
+  bool is_list = false;
+  PlyType count_type = PlyType::UInt8;  // of a list
+};
+
+struct PlyElement {
+  std::string name;
+  std::int64_t count = 0;
+  std::vector<PlyProperty> properties;
+};
+
+// The values of the body, one at a time, ascii or binary little-endian. Returns false at the end.
+class PlyValues {
+ public:
+  PlyValues(const std::string& bytes, std::size_t start, bool ascii) : bytes_(bytes), at_(start), ascii_(ascii) {}
+
+  bool next(PlyType type, double& value) {
+    if (ascii_) return next_text(value);
+    const std::size_t n = type_size(type);
+    if (bytes_.size() - at_ < n) return false;
+    const char* p = bytes_.data() + at_;
+    at_ += n;
+    // Little-endian on every host: assembled byte by byte.
+    std::uint64_t bits = 0;
+    for (std::size_t i = 0; i < n; ++i) bits |= static_cast<std::uint64_t>(static_cast<unsigned char>(p[i])) << (8 * i);
+    switch (type) {
+      case PlyType::Int8:
+        value = static_cast<std::int8_t>(bits);
+        break;
+      case PlyType::UInt8:
+        value = static_cast<std::uint8_t>(bits);
+        break;
+      case PlyType::Int16:
+        value = static_cast<std::int16_t>(bits);
+        break;
+      case PlyType::UInt16:
+        value = static_cast<std::uint16_t>(bits);
+        break;
+      case PlyType::Int32:
+        value = static_cast<std::int32_t>(bits);
+        break;
+      case PlyType::UInt32:
+        value = static_cast<std::uint32_t>(bits);
+        break;
+      case PlyType::Float32: {
+        const std::uint32_t b32 = static_cast<std::uint32_t>(bits);
+        float f;
+        std::memcpy(&f, &b32, sizeof f);
+        value = f;
+        break;
+      }
+      case PlyType::Float64: {
+        double d;
+        std::memcpy(&d, &bits, sizeof d);
+        value = d;
+        break;
+      }
+    }
+    return true;
+  }
+
+  /// The text that failed to read as a number (ascii), for messages; empty at the end of the file.
+  std::string bad_token() const { return bad_token_; }
+
+ private:
+  bool next_text(double& value) {
+    while (at_ < bytes_.size() && std::isspace(static_cast<unsigned char>(bytes_[at_]))) ++at_;
+    if (at_ == bytes_.size()) return false;
+    std::size_t end = at_;
+    while (end < bytes_.size() && !std::isspace(static_cast<unsigned char>(bytes_[end]))) ++end;
+    const std::string token = bytes_.substr(at_, end - at_);
+    char* stop = nullptr;
+    value = std::strtod(token.c_str(), &stop);
+    if (stop != token.c_str() + token.size()) {
+      bad_token_ = token;
+      return false;
+    }
+    at_ = end;
+    return true;
+  }
+
+  const std::string& bytes_;
+  std::size_t at_;
+  bool ascii_;
+  std::string bad_token_;
+};
+
+std::uint8_t colour_channel(double value, PlyType type) {
+  // Floating-point colours are in [0, 1]; integer ones in [0, 255] (wider types are clamped).
+  if (type == PlyType::Float32 || type == PlyType::Float64) value *= 255.0;
+  if (!(value > 0.0)) return 0;
+  return static_cast<std::uint8_t>(std::lround(std::min(value, 255.0)));
+}
+
+Cloud read_ply(const std::string& path) {
+  const std::string where = "point cloud " + in_quotes(path);
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw RuntimeError("cannot open " + where);
+  const std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  if (in.bad()) throw RuntimeError("cannot read " + where);
+  if (bytes.rfind("ply\n", 0) != 0 && bytes.rfind("ply\r\n", 0) != 0)
+    throw RuntimeError(where + " is not a PLY file (it does not start with 'ply')");
+
+  // The header: lines up to "end_header".
+  std::vector<PlyElement> elements;
+  std::string format;
+  std::size_t at = bytes.find('\n') + 1;
+  bool ended = false;
+  while (!ended) {
+    const std::size_t end = bytes.find('\n', at);
+    if (end == std::string::npos) throw RuntimeError(where + ": the header has no end_header line");
+    std::string line = bytes.substr(at, end - at);
+    at = end + 1;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::istringstream words(line);
+    std::string keyword;
+    words >> keyword;
+    if (keyword == "end_header") {
+      ended = true;
+    } else if (keyword == "format") {
+      std::string version;
+      words >> format >> version;
+      if (format != "ascii" && format != "binary_little_endian")
+        throw RuntimeError(where + " is in the format '" + format +
+                           "': only ascii and binary_little_endian are read (convert it, e.g. with MeshLab)");
+    } else if (keyword == "element") {
+      PlyElement element;
+      if (!(words >> element.name >> element.count) || element.count < 0)
+        throw RuntimeError(where + ": malformed header line '" + line + "'");
+      elements.push_back(element);
+    } else if (keyword == "property") {
+      if (elements.empty()) throw RuntimeError(where + ": property before any element: '" + line + "'");
+      PlyProperty property;
+      std::string type;
+      words >> type;
+      if (type == "list") {
+        std::string count_type, item_type;
+        words >> count_type >> item_type >> property.name;
+        const auto c = ply_type(count_type), i = ply_type(item_type);
+        if (!c || !i) throw RuntimeError(where + ": unknown type in '" + line + "'");
+        if (*c == PlyType::Float32 || *c == PlyType::Float64)
+          throw RuntimeError(where + ": the length of a list must have an integer type: '" + line + "'");
+        property.is_list = true;
+        property.count_type = *c;
+        property.type = *i;
+      } else {
+        words >> property.name;
+        const auto t = ply_type(type);
+        if (!t) throw RuntimeError(where + ": unknown type '" + type + "' in '" + line + "'");
+        property.type = *t;
+      }
+      if (property.name.empty()) throw RuntimeError(where + ": malformed header line '" + line + "'");
+      elements.back().properties.push_back(property);
+    } else if (keyword != "comment" && keyword != "obj_info" && !keyword.empty()) {
+      throw RuntimeError(where + ": unknown header line '" + line + "'");
+    }
+  }
+  if (format.empty()) throw RuntimeError(where + ": the header has no format line");
+
+  std::size_t vertex_element = elements.size();
+  for (std::size_t e = 0; e < elements.size(); ++e)
+    if (elements[e].name == "vertex") vertex_element = e;
+  if (vertex_element == elements.size()) throw RuntimeError(where + " has no vertex element");
+  const PlyElement& vertices = elements[vertex_element];
+  if (vertices.count == 0) throw RuntimeError(where + " has no vertices");
+
+  // Where x y z and the colours are among the vertex's properties.
+  constexpr int kNone = -1;
+  int index[6] = {kNone, kNone, kNone, kNone, kNone, kNone};
+  const char* names[6] = {"x", "y", "z", "red", "green", "blue"};
+  for (std::size_t p = 0; p < vertices.properties.size(); ++p)
+    for (int k = 0; k < 6; ++k)
+      if (vertices.properties[p].name == names[k]) {
+        if (vertices.properties[p].is_list)
+          throw RuntimeError(where + ": the vertex property " + names[k] + " is a list");
+        index[k] = static_cast<int>(p);
+      }
+  for (int k = 0; k < 3; ++k)
+    if (index[k] == kNone) throw RuntimeError(where + ": the vertices have no property " + names[k]);
+  const bool colours = index[3] != kNone && index[4] != kNone && index[5] != kNone;
+  std::vector<int> role(vertices.properties.size(), kNone);  // which of names[] each property is
+  for (int k = 0; k < 6; ++k)
+    if (index[k] != kNone) role[static_cast<std::size_t>(index[k])] = k;
+
+  PlyValues values(bytes, at, format == "ascii");
+  const auto list_length = [&](double length, const std::string& element, std::int64_t row) {
+    // Each item takes at least a byte: a longer list cannot be in the file.
+    if (!(length >= 0.0 && length <= static_cast<double>(bytes.size())))
+      throw RuntimeError(where + ": a list of " + element + " " + std::to_string(row + 1) + " has the length " +
+                         std::to_string(length));
+    return static_cast<std::int64_t>(length);
+  };
+  const auto truncated = [&](const std::string& element, std::int64_t row, std::int64_t count) {
+    if (!values.bad_token().empty())
+      return RuntimeError(where + ": '" + values.bad_token() + "' in " + element + " " + std::to_string(row + 1) +
+                          " is not a number");
+    return RuntimeError(where + " is truncated: it ends in " + element + " " + std::to_string(row + 1) + " of " +
+                        std::to_string(count));
+  };
+  // Elements before the vertices are read past (a list needs its count).
+  double value = 0;
+  for (std::size_t e = 0; e < vertex_element; ++e)
+    for (std::int64_t row = 0; row < elements[e].count; ++row)
+      for (const PlyProperty& p : elements[e].properties) {
+        if (!values.next(p.is_list ? p.count_type : p.type, value))
+          throw truncated(elements[e].name, row, elements[e].count);
+        const std::int64_t items = p.is_list ? list_length(value, elements[e].name, row) : 0;
+        for (std::int64_t i = 0; i < items; ++i)
+          if (!values.next(p.type, value)) throw truncated(elements[e].name, row, elements[e].count);
+      }
+
+  Cloud cloud;
+  // No more than the file can hold: a huge count in a small file is truncated, not out of memory.
+  const std::size_t plausible = std::min<std::size_t>(static_cast<std::size_t>(vertices.count), bytes.size() - at);
+  cloud.xyz.reserve(3 * plausible);
+  if (colours) cloud.rgb.reserve(3 * plausible);
+  for (std::int64_t row = 0; row < vertices.count; ++row) {
+    double vertex[6] = {};  // x y z red green blue, in any order in the file
+    for (std::size_t p = 0; p < vertices.properties.size(); ++p) {
+      const PlyProperty& property = vertices.properties[p];
+      if (!values.next(property.is_list ? property.count_type : property.type, value))
+        throw truncated("vertex", row, vertices.count);
+      if (property.is_list) {
+        const std::int64_t items = list_length(value, "vertex", row);
+        for (std::int64_t i = 0; i < items; ++i)
+          if (!values.next(property.type, value)) throw truncated("vertex", row, vertices.count);
+      } else if (role[p] != kNone) {
+        vertex[role[p]] = value;
+      }
+    }
+    for (int k = 0; k < 3; ++k)  // beyond the range of float: not a point to draw
+      cloud.xyz.push_back(std::abs(vertex[k]) <= std::numeric_limits<float>::max()
+                              ? static_cast<float>(vertex[k])
+                              : std::numeric_limits<float>::quiet_NaN());
+    if (colours)
+      for (int k = 3; k < 6; ++k) {
+        const PlyType type = vertices.properties[static_cast<std::size_t>(index[k])].type;
+        cloud.rgb.push_back(colour_channel(vertex[k], type));
+      }
+  }
+  return cloud;
+}
+
+// ---- the view ---------------------------------------------------------------------------------
+
+cv::Size parse_size(const std::string& text) {
+  int width = 0, height = 0;
+  char x = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &width, &x, &height, &extra) != 3 || (x != 'x' && x != 'X') ||
+      width < 1 || height < 1 || width > 16384 || height > 16384)
+    throw UsageError("--size '" + text + "': expected WIDTHxHEIGHT, each 1 .. 16384, e.g. 800x600");
+  return {width, height};
+}
+
+cv::Vec3b parse_colour(const std::string& text) {  // as B, G, R
+  if (text == "black") return {0, 0, 0};
+  if (text == "white") return {255, 255, 255};
+  if (text == "gray" || text == "grey") return {128, 128, 128};
+  unsigned r = 0, g = 0, b = 0;
+  char extra = 0;
+  if (text.size() == 7 && text[0] == '#' &&
+      std::sscanf(text.c_str(), "#%2x%2x%2x%c", &r, &g, &b, &extra) == 3 &&
+      text.find_first_not_of("0123456789abcdefABCDEF", 1) == std::string::npos)
+    return {static_cast<std::uint8_t>(b), static_cast<std::uint8_t>(g), static_cast<std::uint8_t>(r)};
+  int ri = -1, gi = -1, bi = -1;
+  if (std::sscanf(text.c_str(), "%d,%d,%d%c", &ri, &gi, &bi, &extra) == 3 && ri >= 0 && ri <= 255 && gi >= 0 &&
+      gi <= 255 && bi >= 0 && bi <= 255)
+    return {static_cast<std::uint8_t>(bi), static_cast<std::uint8_t>(gi), static_cast<std::uint8_t>(ri)};
+  throw UsageError("--background '" + text + "': expected black, white, gray, #RRGGBB or R,G,B (0 .. 255)");
+}
+
+cv::Matx33d rotation_about_x(double radians) {
+  const double c = std::cos(radians), s = std::sin(radians);
+  return {1, 0, 0, 0, c, -s, 0, s, c};
+}
+
+cv::Matx33d rotation_about_y(double radians) {
+  const double c = std::cos(radians), s = std::sin(radians);
+  return {c, 0, s, 0, 1, 0, -s, 0, c};
+}
+
+// The rotation (camera to world) of a camera looking along `forward` with the world's Y (down)
+// as its down, as far as it can be.
+cv::Matx33d looking_along(const cv::Vec3d& forward) {
+  const cv::Vec3d z = cv::normalize(forward);
+  cv::Vec3d x = cv::Vec3d(0, 1, 0).cross(z);
+  if (cv::norm(x) < 1e-9) x = {1, 0, 0};  // straight up or down
+  x = cv::normalize(x);
+  const cv::Vec3d y = z.cross(x);
+  return {x[0], y[0], z[0], x[1], y[1], z[1], x[2], y[2], z[2]};
+}
+
+std::string fixed(double v, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
+}
+
+std::string point_text(const cv::Vec3d& p) {
+  return "(" + fixed(p[0], 3) + ", " + fixed(p[1], 3) + ", " + fixed(p[2], 3) + ")";
+}
+
+}  // namespace
+
+RenderCommand::RenderCommand(CLI::App& parent)
+    : command_(parent.add_subcommand("render", "draw a point cloud (PLY) as a picture from a chosen viewpoint")) {
+  CLI::App& app = *command_;
+  app.footer(kRenderFooter);
+  app.add_option("CLOUD", cloud_, "point cloud: PLY, ascii or binary little-endian")->required();
+  app.add_option("-o,--output", output_, "picture to write: .png or .jpg")->required();
+  app.add_option("--yaw", yaw_, "degrees about the vertical axis through the centre (positive: from the left)")
+      ->check(CLI::Range(-360.0, 360.0))
+      ->capture_default_str();
+  app.add_option("--pitch", pitch_, "degrees about the horizontal axis (negative: from above)")
+      ->check(CLI::Range(-89.0, 89.0))
+      ->capture_default_str();
+  app.add_option("--distance", distance_, "distance to the centre, as a multiple of the original camera's")
+      ->check(CLI::Range(0.01, 1000.0))
+      ->capture_default_str();
+  app.add_option("--size", size_, "picture size WIDTHxHEIGHT")->capture_default_str();
+  app.add_option("--focal", focal_, "focal length of the view, pixels (default: fit the cloud into the picture)")
+      ->check(CLI::PositiveNumber);
+  app.add_option("--point-size", point_size_, "side of the square drawn for each point, pixels")
+      ->check(CLI::Range(1, 32))
+      ->capture_default_str();
+  app.add_option("--background", background_, "colour: black, white, gray, #RRGGBB or R,G,B")->capture_default_str();
+}
+
+void RenderCommand::run() const {
+  // Every check that needs no reading comes first.
+  const cv::Size size = parse_size(size_);
+  const cv::Vec3b background = parse_colour(background_);
+  check_output_path(output_, {cloud_}, "rendered view");
+  if (!cv::haveImageWriter(output_))
+    throw UsageError("-o " + in_quotes(output_) + ": cannot write an image with this extension (use .png or .jpg)");
+
+  const Cloud cloud = read_ply(cloud_);
+  std::vector<std::size_t> finite;
+  finite.reserve(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (std::isfinite(cloud.xyz[3 * i]) && std::isfinite(cloud.xyz[3 * i + 1]) && std::isfinite(cloud.xyz[3 * i + 2]))
+      finite.push_back(i);
+  if (finite.empty()) throw RuntimeError("point cloud " + in_quotes(cloud_) + " has no finite points");
+
+  // The centre: the median of each coordinate, which stray points do not move.
+  cv::Vec3d centre;
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double> coordinate;
+    coordinate.reserve(finite.size());
+    for (std::size_t i : finite) coordinate.push_back(cloud.xyz[3 * i + axis]);
+    centre[axis] = median(coordinate);
+  }
+  // From the centre to the original camera (the origin); a cloud centred on the origin is seen
+  // from behind it, from twice its median radius.
+  cv::Vec3d offset = -centre;
+  if (cv::norm(offset) < 1e-12) {
+    std::vector<double> radius;
+    for (std::size_t i : finite)
+      radius.push_back(cv::norm(cv::Vec3d(cloud.xyz[3 * i], cloud.xyz[3 * i + 1], cloud.xyz[3 * i + 2]) - centre));
+    const double r = median(radius);
+    offset = {0, 0, -2.0 * (r > 0 ? r : 1.0)};
+  }
+  constexpr double kDegree = 3.14159265358979323846 / 180.0;
+  const cv::Matx33d turn = rotation_about_y(yaw_ * kDegree) * rotation_about_x(pitch_ * kDegree);
+  const cv::Matx33d camera_to_world = turn * looking_along(-offset);
+  const cv::Matx33d world_to_camera = camera_to_world.t();
+  const cv::Vec3d camera = centre + distance_ * (turn * offset);
+
+  // Points in the view camera's frame; those behind it (or at it) are not drawn.
+  const double near = 1e-6 * cv::norm(offset) * distance_;
+  std::vector<cv::Vec3d> in_camera;
+  std::vector<std::size_t> source;
+  in_camera.reserve(finite.size());
+  source.reserve(finite.size());
+  for (std::size_t i : finite) {
+    const cv::Vec3d p = world_to_camera * (cv::Vec3d(cloud.xyz[3 * i], cloud.xyz[3 * i + 1], cloud.xyz[3 * i + 2]) -
+                                           camera);
+    if (p[2] > near) {
+      in_camera.push_back(p);
+      source.push_back(i);
+    }
+  }
+
+  const double cx = 0.5 * (size.width - 1), cy = 0.5 * (size.height - 1);
+  double focal = focal_;
+  if (focal <= 0.0) {
+    // Fit 99.5 % of the points into the picture, with a margin of 5 % on each side: a few stray
+    // points (mismatches) do not shrink the view.
+    std::vector<double> spread_x, spread_y;
+    for (const cv::Vec3d& p : in_camera) {
+      spread_x.push_back(std::abs(p[0] / p[2]));
+      spread_y.push_back(std::abs(p[1] / p[2]));
+    }
+    const double sx = percentile(spread_x, 99.5), sy = percentile(spread_y, 99.5);
+    focal = std::min(sx > 0 ? 0.45 * size.width / sx : 1e30, sy > 0 ? 0.45 * size.height / sy : 1e30);
+    if (!(focal < 1e29)) focal = std::max(size.width, size.height);
+  }
+
+  // Gray by depth for clouds without colours: nearer is lighter, over the 2nd to 98th percentile.
+  double near_depth = 0, far_depth = 0;
+  if (cloud.rgb.empty() && !in_camera.empty()) {
+    std::vector<double> depths;
+    depths.reserve(in_camera.size());
+    for (const cv::Vec3d& p : in_camera) depths.push_back(p[2]);
+    near_depth = percentile(depths, 2.0);
+    far_depth = percentile(depths, 98.0);
+  }
+  const auto gray_of_depth = [&](double z) {
+    const double t = far_depth > near_depth ? std::clamp((z - near_depth) / (far_depth - near_depth), 0.0, 1.0) : 0.0;
+    const auto level = static_cast<std::uint8_t>(std::lround(230.0 - 140.0 * t));
+    return cv::Vec3b(level, level, level);
+  };
+
+  cv::Mat picture(size, CV_8UC3, cv::Scalar(background[0], background[1], background[2]));
+  const std::size_t pixels = static_cast<std::size_t>(size.width) * size.height;
+  std::vector<double> depth(pixels, std::numeric_limits<double>::infinity());
+  const int lo = -(point_size_ - 1) / 2, hi = point_size_ / 2;
+  std::size_t in_view = 0;
+  for (std::size_t n = 0; n < in_camera.size(); ++n) {
+    const cv::Vec3d& p = in_camera[n];
+    const double u = focal * p[0] / p[2] + cx, v = focal * p[1] / p[2] + cy;
+    if (!(u > -point_size_ - 1.0 && u < size.width + point_size_ && v > -point_size_ - 1.0 &&
+          v < size.height + point_size_))
+      continue;
+    const int ui = static_cast<int>(std::floor(u + 0.5)), vi = static_cast<int>(std::floor(v + 0.5));
+    const std::size_t i = source[n];
+    const std::uint8_t* rgb = cloud.rgb.empty() ? nullptr : &cloud.rgb[3 * i];
+    const cv::Vec3b colour = rgb ? cv::Vec3b(rgb[2], rgb[1], rgb[0]) : gray_of_depth(p[2]);
+    in_view += ui >= 0 && ui < size.width && vi >= 0 && vi < size.height ? 1 : 0;
+    for (int y = std::max(vi + lo, 0); y <= std::min(vi + hi, size.height - 1); ++y)
+      for (int x = std::max(ui + lo, 0); x <= std::min(ui + hi, size.width - 1); ++x) {
+        double& nearest = depth[static_cast<std::size_t>(y) * size.width + x];
+        if (p[2] < nearest) {
+          nearest = p[2];
+          picture.at<cv::Vec3b>(y, x) = colour;
+        }
+      }
+  }
+
+  std::vector<std::uint8_t> bytes;
+  if (!cv::imencode(fs::path(output_).extension().string(), picture, bytes))
+    throw RuntimeError("cannot encode the rendered view " + in_quotes(output_));
+  PendingOutputs outputs;
+  outputs.add(output_, bytes);
+  outputs.commit();
+  std::cout << cloud_ << ": " << cloud.size() << " points, " << in_view << " in view; wrote " << output_ << " ("
+            << size.width << "x" << size.height << ", focal " << fixed(focal, 1) << " px, camera at "
+            << point_text(camera) << " looking at " << point_text(centre) << ")\n";
+}
+
+}  // namespace mctstereo::app

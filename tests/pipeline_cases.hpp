@@ -1,0 +1,152 @@
+// What the whole-pipeline tests of every backend share: a textured pair with a smooth disparity
+// field, the cases the backends are compared on, and map comparison.
+#pragma once
+
+#include <algorithm>
+#include <cstdint>
+#include <ostream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "mctstereo/matcher.hpp"
+#include "test_util.hpp"
+
+namespace mctstereo::test {
+
+/// A gray pair, and the views of it a caller passes to Matcher::compute().
+struct StereoPair {
+  Plane<std::uint8_t> left, right;
+  ImageView left_view() const { return {left.row(0), left.width(), left.height(), left.stride(), PixelFormat::Gray8}; }
+  ImageView right_view() const {
+    return {right.row(0), right.width(), right.height(), right.stride(), PixelFormat::Gray8};
+  }
+};
+
+/// A textured pair with a smooth disparity field (0 at the top left, growing to max_disp at the
+/// bottom right), so that the coarse-to-fine path has real priors.
+inline StereoPair textured_pair(int w, int h, int max_disp, std::uint32_t seed) {
+  StereoPair p{random_texture(w, h, seed), Plane<std::uint8_t>(w, h)};
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const int d = (max_disp * (x + 2 * y)) / (w + 2 * h + 1);
+      p.right.at(x, y) = p.left.at(std::min(x + d, w - 1), y);
+    }
+  return p;
+}
+
+/// The pixels of a map, row after row.
+inline std::vector<std::int16_t> pixels(MapView<const std::int16_t> view) {
+  std::vector<std::int16_t> out;
+  for (int y = 0; y < view.height; ++y) out.insert(out.end(), view.row(y), view.row(y) + view.width);
+  return out;
+}
+
+/// "(x, y): a vs b" at the first difference of two maps `w` pixels wide, or empty when equal.
+inline std::string describe_difference(const std::vector<std::int16_t>& a, const std::vector<std::int16_t>& b,
+                                       int w) {
+  if (a.size() != b.size()) return "sizes differ";
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (a[i] != b[i])
+      return "(" + std::to_string(i % w) + ", " + std::to_string(i / w) + "): " + std::to_string(a[i]) + " vs " +
+             std::to_string(b[i]);
+  return {};
+}
+
+/// What a matcher of `backend` refuses with std::invalid_argument: views of another size, a
+/// null view, a stride shorter than a row, and a range the parameters do not allow.
+inline void expect_rejects_wrong_input(Backend backend, const MatcherOptions& options = {}) {
+  StereoParams p = preset("realtime");
+  p.num_disparities = 16;
+  Matcher m(64, 32, p, backend, options);
+  std::vector<std::uint8_t> px(64 * 32);
+  const ImageView good{px.data(), 64, 32, 64, PixelFormat::Gray8};
+  EXPECT_THROW(m.compute({px.data(), 63, 32, 64, PixelFormat::Gray8}, good), std::invalid_argument);
+  EXPECT_THROW(m.compute(good, {nullptr, 64, 32, 64, PixelFormat::Gray8}), std::invalid_argument);
+  EXPECT_THROW(m.compute(good, {px.data(), 64, 32, 32, PixelFormat::Gray8}), std::invalid_argument);
+  StereoParams bad = p;
+  bad.num_disparities = 0;
+  EXPECT_THROW(Matcher(64, 32, bad, backend, options), std::invalid_argument);
+  bad = p;
+  bad.num_disparities = 65;
+  EXPECT_THROW(Matcher(64, 32, bad, backend, options), std::invalid_argument);
+}
+
+struct PipelineCase {
+  std::string name;
+  StereoParams params;
+  int w, h;
+  /// The name as an identifier, for test names.
+  std::string id() const {
+    std::string id = name;
+    std::replace(id.begin(), id.end(), '-', '_');
+    return id;
+  }
+  /// The largest disparity of the case's pair: within the range, and at most half the width.
+  int max_disparity() const { return params.max_disparity() > 0 ? std::min(params.max_disparity(), w / 2) : 0; }
+};
+
+// Test logs name the case, not its bytes.
+inline void PrintTo(const PipelineCase& c, std::ostream* os) { *os << c.name << " " << c.w << "x" << c.h; }
+
+/// Every preset, then the cases where coarse to fine, refinement or sizes are awkward.
+inline std::vector<PipelineCase> pipeline_cases() {
+  std::vector<PipelineCase> out;
+  for (const std::string& name : preset_names()) {
+    StereoParams p = preset(name);
+    p.num_disparities = 24;
+    out.push_back({name, p, 97, 61});
+  }
+  StereoParams neg = preset("balanced");
+  neg.min_disparity = -7;
+  neg.num_disparities = 30;
+  out.push_back({"negative_min", neg, 81, 33});
+  StereoParams wide = preset("quality");
+  wide.num_disparities = 38;
+  out.push_back({"range_nearly_image_width", wide, 40, 20});
+  StereoParams scaled = preset("realtime");
+  scaled.working_scale = 2;
+  scaled.num_disparities = 32;
+  out.push_back({"working_scale_2", scaled, 75, 45});
+  StereoParams scaled4 = preset("balanced");
+  scaled4.working_scale = 4;
+  scaled4.pyramid_levels = 2;
+  scaled4.min_disparity = -5;
+  scaled4.num_disparities = 40;
+  out.push_back({"working_scale_4_negative_min", scaled4, 130, 66});
+  StereoParams unique = preset("balanced");
+  unique.uniqueness_ratio = 10;
+  unique.fill = FillMode::Nearest;
+  unique.census = CensusKind::ModifiedCensus;
+  unique.census_window = 7;
+  unique.mct_kernel = MeanKernel::Box;
+  out.push_back({"uniqueness_mct7_box_nearest", unique, 64, 40});
+  StereoParams finest = preset("balanced");
+  finest.refine_all_levels = false;
+  finest.speckle_size = 400;  // speckle removal at the finest level only, large regions
+  finest.num_disparities = 24;
+  out.push_back({"finest_only_large_speckles", finest, 90, 50});
+  StereoParams plain = preset("balanced");
+  plain.median_size = 0;
+  plain.post_median_size = 0;
+  plain.lr_check = false;
+  plain.speckle_size = 0;
+  plain.fill = FillMode::None;
+  plain.shd_window = 1;
+  plain.coarse_shd_window = 1;
+  plain.num_disparities = 20;
+  out.push_back({"no_refinement_hamming", plain, 50, 30});
+  StereoParams tiny = preset("realtime");
+  tiny.num_disparities = 4;
+  out.push_back({"tiny_17x5", tiny, 17, 5});
+  StereoParams single = tiny;
+  single.num_disparities = 1;
+  out.push_back({"one_column", single, 1, 64});
+  out.push_back({"one_row", tiny, 64, 1});
+  StereoParams odd = preset("mr-mct-5x5");
+  odd.num_disparities = 21;
+  out.push_back({"odd_131x37", odd, 131, 37});
+  return out;
+}
+
+}  // namespace mctstereo::test
