@@ -397,6 +397,9 @@ void StreamCommand::run() const {
     check_output_path(frame_path(*pattern, first_index), {}, what);
     for (int index = first_index; index < last; ++index) input_names.check(frame_path(*pattern, index), flag, *pattern);
   }
+  if (!disparity_.empty() && !depth_.empty())
+    check_distinct_outputs({{"--disparity", frame_path(disparity_, first_index)},
+                            {"--depth", frame_path(depth_, first_index)}});  // '%d' and '%1d' name the same files
   if (!preview_video_.empty()) check_output_path(preview_video_, inputs, "preview video");
 
   const StopSignals stop_signals;

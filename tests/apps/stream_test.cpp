@@ -372,6 +372,8 @@ TEST_F(Stream, BadOutputsAreRefusedBeforeAnyWork) {
   expect_failure(kSequence + "--depth 'out/z.pfm' --focal 100 --baseline 0.1", kUsage, "has 0 integer conversions");
   expect_failure(kSequence + "--max-depth 5 --focal 100 --baseline 0.1", kUsage, "--max-depth cuts --depth");
   expect_failure(kSequence + "--disparity 'out/%d.pfm' --depth 'out/%d.pfm'", kUsage, "are the same file");
+  expect_failure(kSequence + "--disparity 'out/%d.pfm' --depth 'out/%1d.pfm'", kUsage,
+                 "--disparity and --depth are the same file 'out/0.pfm'");
   expect_failure(kSequence + "--depth 'out/z%d.pfm' --focal 100 --baseline 0.1 --cx 300 --calib nowhere.yml",
                  kRuntime, "nowhere.yml");
   EXPECT_EQ(folder_listing(folder_ / "seq"), inputs);
