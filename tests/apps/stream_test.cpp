@@ -326,7 +326,7 @@ TEST_F(Stream, FrameChangingSizeStopsWithTheEarlierFramesWritten) {
 }
 
 TEST_F(Stream, BadInputsAreNamed) {
-  write_sequence();
+  write_sequence(1);
   std::ofstream(folder_ / "junk.avi") << "not a video at all";
   expect_failure("--side-by-side junk.avi", kRuntime, "cannot open --side-by-side video 'junk.avi'");
   expect_failure("--left missing.avi --right junk.avi", kRuntime, "--left 'missing.avi': no such file or folder");
@@ -335,6 +335,10 @@ TEST_F(Stream, BadInputsAreNamed) {
   expect_failure("--left 'seq/left_%04d.png'", kUsage, "--left needs --right");
   expect_failure("--left 'seq/left_%04d.png' --right 'seq/right_%04d.png' --left-camera 0", kUsage, "give one input");
   expect_failure("", kUsage, "no input");
+}
+
+TEST_F(Stream, BadSequencesAreNamed) {
+  write_sequence();
   expect_failure("--left 'seq/left_%04d_%d.png' --right 'seq/right_%04d.png'", kUsage, "exactly one");
   expect_failure("--left 'seq/x_%04d.png' --right 'seq/right_%04d.png'", kRuntime, "no such files");
   expect_failure(kSequence + "--start 6", kRuntime, "--start 6");
@@ -351,22 +355,27 @@ TEST_F(Stream, BadInputsAreNamed) {
   expect_failure("--left l --right r", kRuntime, "--left 'l' holds 6 images but --right 'r' holds 5");
 }
 
-TEST_F(Stream, BadOutputsAreRefusedBeforeAnyWork) {
-  write_sequence();
-  const std::set<std::string> inputs = folder_listing(folder_ / "seq");
-  const std::string before = read_text(folder_ / "seq/left_0002.png");
+TEST_F(Stream, BadOutputPatternsAreRefusedBeforeAnyWork) {
+  write_sequence(1);
   expect_failure(kSequence + "--disparity out/disp.png", kUsage, "has 0 integer conversions");
   expect_failure(kSequence + "--disparity 'out/disp_%s.png'", kUsage, "'%s' is not an integer conversion");
   expect_failure(kSequence + "--disparity 'out/%d_%d.png'", kUsage, "has 2 integer conversions");
   expect_failure(kSequence + "--disparity 'out_%d/disp.png'", kUsage, "must be in the file name");
   expect_failure(kSequence + "--disparity 'nowhere/disp_%d.png'", kRuntime, "folder 'nowhere' does not exist");
   expect_failure(kSequence + "--disparity 'out/disp_%d.jpg'", kUsage, "cannot tell the disparity format");
+  expect_failure(kSequence + "--preview-video out/p.gif", kUsage, "name it .avi");
+  expect_failure(kSequence + "--format q4", kUsage, "--format q4 applies to --disparity files");
+  EXPECT_TRUE(fs::is_empty(folder_ / "out"));
+}
+
+TEST_F(Stream, OutputsThatWouldReplaceAnInputOrEachOtherAreRefused) {
+  write_sequence();
+  const std::set<std::string> inputs = folder_listing(folder_ / "seq");
+  const std::string before = read_text(folder_ / "seq/left_0002.png");
   // An output named like the inputs: refused, and no input touched.
   expect_failure(kSequence + "--disparity 'seq/left_%04d.png'", kUsage, "refusing to overwrite an input");
   expect_failure(kSequence + "--disparity './seq/../seq/right_%04d.png' --start 2", kUsage,
                  "--disparity './seq/../seq/right_%04d.png' would write './seq/../seq/right_0002.png', an input");
-  expect_failure(kSequence + "--preview-video out/p.gif", kUsage, "name it .avi");
-  expect_failure(kSequence + "--format q4", kUsage, "--format q4 applies to --disparity files");
   expect_failure(kSequence + "--depth 'out/z%d.png'", kUsage,
                  "a PNG depth map holds millimetres and needs a calibration");
   expect_failure(kSequence + "--depth 'out/z.pfm' --focal 100 --baseline 0.1", kUsage, "has 0 integer conversions");
