@@ -340,8 +340,9 @@ TEST_F(DepthCli, BadCalibrationsAndMissingFlagsWriteNothing) {
                    "K2: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n  data: [400, 0, 190, 0, 400, 140, 0, 0, 1]\n"
                    "D2: !!opencv-matrix\n  rows: 1\n  cols: 5\n  dt: d\n  data: [0, 0, 0, 0, 0]\n"
                    "R: !!opencv-matrix\n  rows: 3\n  cols: 3\n  dt: d\n  data: [1, 0, 0, 0, 1, 0, 0, 0, 1]\n"
-                   "T: !!opencv-matrix\n  rows: 3\n  cols: 1\n  dt: d\n  data: [-0.16, 0, 0]\n");
-  expect_failure(kPair + "-o d.pfm --calib rig.yml --ply c.ply", kUsage, "rectification");
+                   "T: !!opencv-matrix\n  rows: 3\n  cols: 1\n  dt: d\n  data: [0.16, 0, 0]\n");
+  // The right camera 0.16 to the left of the left one: a swapped pair, which no rectification mends.
+  expect_failure(kPair + "-o d.pfm --calib rig.yml --ply c.ply", kRuntime, "swapped");
 
   expect_failure(kPair + "-o d.pfm --ply c.ply", kUsage, "--ply 'c.ply': a point cloud needs a calibration");
   expect_failure(kPair + "-o d.pfm --obj c.obj", kUsage, "--obj 'c.obj': a point cloud needs a calibration");
