@@ -202,6 +202,11 @@ class VideoStream : public ImageStream {
       throw RuntimeError("cannot open camera " + std::to_string(camera) + " (" + std::string(flag) + ")");
   }
 
+  // A capture opened by the caller, read as camera `camera`: its end is the camera failing.
+  VideoStream(cv::VideoCapture&& capture, int camera) : camera_(camera), capture_(std::move(capture)) {
+    if (!capture_.isOpened()) throw RuntimeError("camera " + std::to_string(camera) + " is not open");
+  }
+
   bool grab() override { return capture_.grab(); }
   void retrieve(cv::Mat& image) override {
     if (!capture_.retrieve(image) || image.empty())
@@ -467,6 +472,12 @@ std::unique_ptr<StereoSource> open_stereo_source(const StereoInputSpec& spec, in
   }
   return std::make_unique<SideBySideSource>(
       std::make_unique<VideoStream>(spec.side_by_side_camera, "--side-by-side-camera"), "a side-by-side camera");
+}
+
+std::unique_ptr<StereoSource> camera_pair_source(cv::VideoCapture&& left, int left_index, cv::VideoCapture&& right,
+                                                 int right_index) {
+  return std::make_unique<PairSource>(std::make_unique<VideoStream>(std::move(left), left_index),
+                                      std::make_unique<VideoStream>(std::move(right), right_index), "two cameras");
 }
 
 }  // namespace mctstereo::app

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <opencv2/core.hpp>
+#include <opencv2/videoio.hpp>
 
 #include <memory>
 #include <string>
@@ -57,6 +58,12 @@ class StereoSource {
 /// pattern; RuntimeError when a video or camera does not open, a folder holds no images, the two
 /// sequences have different lengths, or `start` is past the end.
 std::unique_ptr<StereoSource> open_stereo_source(const StereoInputSpec& spec, int start);
+
+/// Two captures the caller opened (OpenCV devices this program does not open by index, such as a
+/// GStreamer pipeline) read as the cameras `left_index` and `right_index`: as for --left-camera and
+/// --right-camera, a capture that stops delivering frames is a RuntimeError, not the end of input.
+std::unique_ptr<StereoSource> camera_pair_source(cv::VideoCapture&& left, int left_index, cv::VideoCapture&& right,
+                                                 int right_index);
 
 /// Throws UsageError unless `pattern` holds exactly one integer conversion (%d, %05d, %i, %u; %%
 /// for a literal %), in its file name rather than its folder. `flag` names it in messages.

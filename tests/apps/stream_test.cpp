@@ -20,6 +20,8 @@
 #include <vector>
 
 #include "cli_test_util.hpp"
+#include "errors.hpp"
+#include "frame_source.hpp"
 
 namespace {
 
@@ -491,6 +493,41 @@ TEST_F(Stream, SigtermStopsCleanlyWithEveryWrittenFileWhole) {
   EXPECT_EQ(folder_listing(folder_ / "out"), expected);
   for (int f = 0; f < std::min(frames, 12); ++f)
     expect_frame(read_kitti(folder_ / "out" / numbered("%05d.png", f)), f % kFrames, kExact, 1.0);
+}
+
+// A camera that stops delivering frames mid-stream is an error naming it and the frames it gave,
+// not the end of input: two captures of short lossless videos stand in for the cameras.
+TEST(StreamSource, CameraThatStopsIsAnError) {
+  const fs::path folder = fs::temp_directory_path() / ("mctstereo_camera_stop_" + std::to_string(::getpid()));
+  fs::remove_all(folder);
+  fs::create_directories(folder);
+  const auto write_video = [&](const std::string& name, int frames) {
+    cv::VideoWriter video((folder / name).string(), cv::CAP_FFMPEG, kFfv1, 10.0, cv::Size(kWidth, kHeight), true);
+    if (!video.isOpened()) return false;
+    for (int f = 0; f < frames; ++f) video.write(cv::Mat(kHeight, kWidth, CV_8UC3, cv::Scalar(10 * f, 50, 90)));
+    return true;
+  };
+  if (!write_video("left.mkv", 3) || !write_video("right.mkv", 5)) GTEST_SKIP() << "OpenCV here writes no FFV1 video";
+  const auto open = [&](const std::string& name) { return cv::VideoCapture((folder / name).string(), cv::CAP_FFMPEG); };
+
+  for (const bool left_stops : {true, false}) {
+    auto source = left_stops ? mctstereo::app::camera_pair_source(open("left.mkv"), 2, open("right.mkv"), 5)
+                             : mctstereo::app::camera_pair_source(open("right.mkv"), 2, open("left.mkv"), 5);
+    mctstereo::app::StereoFrame frame;
+    for (int f = 0; f < 3; ++f) {
+      ASSERT_TRUE(source->read(frame)) << "frame " << f;
+      EXPECT_EQ(frame.left.size(), cv::Size(kWidth, kHeight));
+    }
+    try {
+      source->read(frame);
+      ADD_FAILURE() << "a camera that stopped read as the end of the input";
+    } catch (const mctstereo::app::RuntimeError& e) {
+      const std::string expected =
+          std::string("camera ") + (left_stops ? "2" : "5") + " stopped delivering frames after 3 frames";
+      EXPECT_EQ(std::string(e.what()), expected);
+    }
+  }
+  fs::remove_all(folder);
 }
 
 }  // namespace
