@@ -140,19 +140,8 @@ class JsonReader {
 
 JsonValue read_json(const fs::path& path) { return JsonReader(read_text(path)).document(); }
 
-class BenchCli : public ::testing::Test {
+class BenchCli : public mctstereo::test::FolderTest {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    folder_ = fs::temp_directory_path() /
-              ("mctstereo_bench_cli_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-    fs::remove_all(folder_);
-    fs::create_directories(folder_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(folder_, ec);
-  }
 
   // Runs `mctstereo bench ARGS --data <the bundled Tsukuba>` in the test folder; stderr (progress)
   // goes to stderr.txt there unless `with_stderr`.
@@ -172,8 +161,6 @@ class BenchCli : public ::testing::Test {
     EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << "one line expected:\n" << r.output;
     EXPECT_FALSE(fs::exists(folder_ / "b.json")) << args;
   }
-
-  fs::path folder_;
 };
 
 const std::vector<std::string> kStages = {"gray", "pyramid", "census", "match", "refine", "output", "frame"};

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "calibration.hpp"
+#include "cli_test_util.hpp"
 #include "errors.hpp"
 
 namespace mctstereo::app {
@@ -35,25 +36,8 @@ constexpr const char* kAdirondack =
     "dyavg=0.188\n"
     "dymax=0.385\n";
 
-class Calibrations : public ::testing::Test {
+class Calibrations : public ::mctstereo::test::FolderTest {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    folder_ = fs::temp_directory_path() /
-              ("mctstereo_calibration_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-    fs::remove_all(folder_);
-    fs::create_directories(folder_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(folder_, ec);
-  }
-
-  std::string write_text(const std::string& name, const std::string& text) const {
-    const fs::path path = folder_ / name;
-    std::ofstream(path, std::ios::binary) << text;
-    return path.string();
-  }
 
   // An OpenCV FileStorage file of `name` (its extension picks YAML, XML or JSON) filled by `fill`.
   std::string write_storage(const std::string& name, const std::function<void(cv::FileStorage&)>& fill) const {
@@ -74,8 +58,6 @@ class Calibrations : public ::testing::Test {
         EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << "'" << part << "' missing in: " << e.what();
     }
   }
-
-  fs::path folder_;
 };
 
 // A rectified horizontal pair: f = 700, principal points (320, 240) and (330, 240), baseline 0.12.
@@ -91,7 +73,7 @@ void expect_rectified_pair(const Calibration& c) {
 }
 
 TEST_F(Calibrations, MiddleburyCalibTxt) {
-  const std::string path = write_text("calib.txt", kAdirondack);
+  const std::string path = write("calib.txt", kAdirondack);
   const Calibration c = read_calibration(path);
   EXPECT_DOUBLE_EQ(c.geometry.focal, 4161.221);
   EXPECT_DOUBLE_EQ(c.geometry.cx, 1445.577);
@@ -109,7 +91,7 @@ TEST_F(Calibrations, MiddleburyCalibTxt) {
 }
 
 TEST_F(Calibrations, MiddleburyWithoutDoffsTakesItFromCam1) {
-  const std::string path = write_text("calib.txt",
+  const std::string path = write("calib.txt",
                                       "cam0=[1000 0 300.5; 0 1000 200; 0 0 1]\r\n"
                                       "cam1=[1000 0 312.75; 0 1000 200; 0 0 1]\r\n"
                                       "baseline=50\r\n");
@@ -190,7 +172,7 @@ TEST_F(Calibrations, RawCamerasWithProjectionsNeedRectificationUnlessMarkedRecti
 }
 
 TEST_F(Calibrations, WriteThenReadGivesTheSameValues) {
-  Calibration original = read_calibration(write_text("calib.txt", kAdirondack));
+  Calibration original = read_calibration(write("calib.txt", kAdirondack));
   const std::string path = (folder_ / "written.yml").string();
   write_calibration(path, original);
   const Calibration back = read_calibration(path);
@@ -223,22 +205,22 @@ TEST_F(Calibrations, WriteThenReadGivesTheSameValues) {
 TEST_F(Calibrations, BadFilesNameTheFileAndTheKey) {
   expect_error((folder_ / "none.txt").string(), {"none.txt", "no such file"});
   expect_error(folder_.string(), {"folder"});
-  expect_error(write_text("empty.txt", "\n"), {"empty.txt", "empty"});
-  expect_error(write_text("what.txt", "focal: 3\n"), {"what.txt", "unknown format"});
+  expect_error(write("empty.txt", "\n"), {"empty.txt", "empty"});
+  expect_error(write("what.txt", "focal: 3\n"), {"what.txt", "unknown format"});
 
   const std::string cam0 = "cam0=[1000 0 300; 0 1000 200; 0 0 1]\n";
-  expect_error(write_text("m1.txt", cam0 + "doffs=0\n"), {"m1.txt", "'baseline'", "missing"});
-  expect_error(write_text("m2.txt", "cam0=x\nbaseline=50\n"), {"m2.txt", "'cam0'", "3x3"});
-  expect_error(write_text("m3.txt", "cam1=[1000 0 300; 0 1000 200; 0 0 1]\ndoffs=0\nbaseline=5\n"),
+  expect_error(write("m1.txt", cam0 + "doffs=0\n"), {"m1.txt", "'baseline'", "missing"});
+  expect_error(write("m2.txt", "cam0=x\nbaseline=50\n"), {"m2.txt", "'cam0'", "3x3"});
+  expect_error(write("m3.txt", "cam1=[1000 0 300; 0 1000 200; 0 0 1]\ndoffs=0\nbaseline=5\n"),
                {"m3.txt", "'cam0'", "missing"});
-  expect_error(write_text("m4.txt", "cam0=[1000 0 300; 0 1000 200]\nbaseline=50\ndoffs=0\n"), {"'cam0'", "3x3"});
-  expect_error(write_text("m5.txt", cam0 + "baseline=fifty\ndoffs=0\n"), {"m5.txt", "'baseline'", "fifty"});
-  expect_error(write_text("m6.txt", cam0 + "baseline=-50\ndoffs=0\n"), {"'baseline'", "positive"});
-  expect_error(write_text("m7.txt", cam0 + "baseline=50\n"), {"m7.txt", "'doffs'", "cam1"});
-  expect_error(write_text("m8.txt", "cam0=[0 0 300; 0 0 200; 0 0 1]\nbaseline=50\ndoffs=0\n"), {"'cam0'", "focal"});
-  expect_error(write_text("m9.txt", cam0 + "baseline=50\ndoffs=0\nwidth=640\n"), {"'height'", "missing"});
+  expect_error(write("m4.txt", "cam0=[1000 0 300; 0 1000 200]\nbaseline=50\ndoffs=0\n"), {"'cam0'", "3x3"});
+  expect_error(write("m5.txt", cam0 + "baseline=fifty\ndoffs=0\n"), {"m5.txt", "'baseline'", "fifty"});
+  expect_error(write("m6.txt", cam0 + "baseline=-50\ndoffs=0\n"), {"'baseline'", "positive"});
+  expect_error(write("m7.txt", cam0 + "baseline=50\n"), {"m7.txt", "'doffs'", "cam1"});
+  expect_error(write("m8.txt", "cam0=[0 0 300; 0 0 200; 0 0 1]\nbaseline=50\ndoffs=0\n"), {"'cam0'", "focal"});
+  expect_error(write("m9.txt", cam0 + "baseline=50\ndoffs=0\nwidth=640\n"), {"'height'", "missing"});
 
-  expect_error(write_text("broken.yml", "%YAML:1.0\nP1: [1, 2\n"), {"broken.yml", "cannot parse"});
+  expect_error(write("broken.yml", "%YAML:1.0\nP1: [1, 2\n"), {"broken.yml", "cannot parse"});
   expect_error(
       write_storage("nothing.yml", [](cv::FileStorage& f) { f << "image_width" << 640 << "image_height" << 480; }),
       {"nothing.yml", "'P1'", "missing"});
@@ -267,7 +249,7 @@ TEST_F(Calibrations, BadFilesNameTheFileAndTheKey) {
 }
 
 TEST_F(Calibrations, AnotherImageSizeIsRefusedNamingBothSizes) {
-  const Calibration c = read_calibration(write_text("calib.txt", kAdirondack));
+  const Calibration c = read_calibration(write("calib.txt", kAdirondack));
   EXPECT_NO_THROW(check_calibration_fits(c, 2880, 1988, "left image 'l.png'"));
   try {
     check_calibration_fits(c, 1440, 994, "left image 'l.png'");
@@ -310,7 +292,7 @@ TEST_F(Calibrations, FlagsGiveTheGeometryAndOverrideAFile) {
   EXPECT_EQ(all->geometry.doffs, 4.0);
   EXPECT_EQ(all->geometry.units, "mm");
 
-  const std::string calib = write_text("calib.txt", kAdirondack);
+  const std::string calib = write("calib.txt", kAdirondack);
   const std::optional<Calibration> file = resolve_flags({"--calib", calib, "--focal", "4000"}, 2880, 1988);
   EXPECT_EQ(file->geometry.focal, 4000.0);
   EXPECT_EQ(file->geometry.baseline, 176.252);
@@ -337,7 +319,7 @@ TEST_F(Calibrations, IncompleteOrBadFlagsNameTheFlag) {
   EXPECT_NE(usage_message({"--cx", "3"}).find("--focal and --baseline are missing"), std::string::npos);
   EXPECT_NE(usage_message({"--focal", "7", "--baseline", "1", "--units", "parsec"}).find("parsec"), std::string::npos);
   EXPECT_THROW(resolve_flags({"--focal", "-7", "--baseline", "1"}, 640, 480), CLI::ParseError);
-  const std::string calib = write_text("calib.txt", kAdirondack);
+  const std::string calib = write("calib.txt", kAdirondack);
   EXPECT_THROW(resolve_flags({"--calib", calib}, 640, 480), RuntimeError);  // another size
 }
 

@@ -89,27 +89,11 @@ Pfm read_pfm(const fs::path& path) {
 }
 
 // A fresh folder per test holding copies of the Tsukuba pair, so that no test can touch data/.
-class Cli : public ::testing::Test {
+class Cli : public mctstereo::test::FolderTest {
  protected:
   void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    folder_ = fs::temp_directory_path() /
-              ("mctstereo_cli_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-    fs::remove_all(folder_);
-    fs::create_directories(folder_);
-    fs::copy_file(kData / "tsukuba/imL.png", folder_ / "left.png");
-    fs::copy_file(kData / "tsukuba/imR.png", folder_ / "right.png");
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(folder_, ec);
-  }
-
-  // Runs `mctstereo ARGS` in the test folder.
-  Result run(const std::string& args) const {
-    const std::string command =
-        "cd " + shell_quoted(folder_.string()) + " && " + shell_quoted(kProgram.string()) + " " + args + " 2>&1";
-    return run_shell(command);
+    FolderTest::SetUp();
+    copy_tsukuba_pair();
   }
 
   // Runs a command that must fail with `status` and a message containing `message`, leaving the
@@ -130,8 +114,6 @@ class Cli : public ::testing::Test {
     for (const std::string& name : before)
       if (fs::is_regular_file(folder_ / name)) EXPECT_EQ(read_bytes(folder_ / name), contents[k++]) << name;
   }
-
-  fs::path folder_;
 };
 
 constexpr int kUsage = 2;

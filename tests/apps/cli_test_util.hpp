@@ -1,8 +1,10 @@
-// What the command-line tests share: the program under test, the bundled data, and running a
-// shell command with its output captured.
+// What the command-line tests share: the program under test, the bundled data, running a shell
+// command with its output captured, and a fresh folder per test to run it in.
 #pragma once
 
+#include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <array>
 #include <cstdio>
@@ -44,5 +46,44 @@ inline std::string read_text(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
+
+/// A test with a folder of its own, named after the suite and the test and removed afterwards, in
+/// which commands run: no test can touch data/ or another test's files.
+class FolderTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    folder_ = std::filesystem::temp_directory_path() / ("mctstereo_" + std::string(info->test_suite_name()) + "_" +
+                                                        info->name() + "_" + std::to_string(::getpid()));
+    std::filesystem::remove_all(folder_);
+    std::filesystem::create_directories(folder_);
+  }
+  void TearDown() override {
+    std::error_code ec;
+    std::filesystem::remove_all(folder_, ec);
+  }
+
+  /// Copies the bundled Tsukuba pair into the folder as left.png and right.png.
+  void copy_tsukuba_pair() const {
+    std::filesystem::copy_file(kData / "tsukuba/imL.png", folder_ / "left.png");
+    std::filesystem::copy_file(kData / "tsukuba/imR.png", folder_ / "right.png");
+  }
+
+  /// Writes `bytes` to the file `name` of the folder; its path.
+  std::string write(const std::string& name, const std::string& bytes) const {
+    const std::filesystem::path path = folder_ / name;
+    std::ofstream(path, std::ios::binary) << bytes;
+    return path.string();
+  }
+
+  /// Runs `mctstereo ARGS` in the folder, its stderr with its stdout; `environment` ("VAR=value ")
+  /// goes before the program.
+  Result run(const std::string& args, const std::string& environment = "") const {
+    return run_shell("cd " + shell_quoted(folder_.string()) + " && " + environment + shell_quoted(kProgram.string()) +
+                     " " + args + " 2>&1");
+  }
+
+  std::filesystem::path folder_;
+};
 
 }  // namespace mctstereo::test

@@ -165,29 +165,11 @@ TEST(DepthFiles, PngHoldsRoundedMillimetresAndZeroWhereNone) {
   EXPECT_THROW(depth_format_for("z.tif"), UsageError);
 }
 
-class DepthCli : public ::testing::Test {
+class DepthCli : public mctstereo::test::FolderTest {
  protected:
   void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    folder_ = fs::temp_directory_path() /
-              ("mctstereo_depth_cli_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-    fs::remove_all(folder_);
-    fs::create_directories(folder_);
-    fs::copy_file(kData / "tsukuba/imL.png", folder_ / "left.png");
-    fs::copy_file(kData / "tsukuba/imR.png", folder_ / "right.png");
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(folder_, ec);
-  }
-
-  Result run(const std::string& args) const {
-    return run_shell("cd " + shell_quoted(folder_.string()) + " && " + shell_quoted(kProgram.string()) + " " + args +
-                     " 2>&1");
-  }
-
-  void write(const std::string& name, const std::string& text) const {
-    std::ofstream(folder_ / name, std::ios::binary) << text;
+    FolderTest::SetUp();
+    copy_tsukuba_pair();
   }
 
   // A command that must fail with `status`, one line naming `message`, and leave the folder as it was.
@@ -201,8 +183,6 @@ class DepthCli : public ::testing::Test {
     EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << "one line expected:\n" << r.output;
     EXPECT_EQ(folder_listing(folder_), before) << "mctstereo " << args;
   }
-
-  fs::path folder_;
 };
 
 // Few disparities and no filling: quick, and with invalid pixels the clouds must leave out.

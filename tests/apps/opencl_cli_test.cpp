@@ -32,28 +32,18 @@ namespace fs = std::filesystem;
 
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
-class OpenclCli : public ::testing::Test {
+class OpenclCli : public mctstereo::test::FolderTest {
  protected:
   void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    folder_ = fs::temp_directory_path() /
-              ("mctstereo_opencl_cli_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-    fs::remove_all(folder_);
+    FolderTest::SetUp();
     fs::create_directories(folder_ / "no_vendors");
-    fs::copy_file(kData / "tsukuba/imL.png", folder_ / "left.png");
-    fs::copy_file(kData / "tsukuba/imR.png", folder_ / "right.png");
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(folder_, ec);
+    copy_tsukuba_pair();
   }
 
   // Runs `mctstereo ARGS` in the test folder; without_drivers hides every OpenCL driver.
   Result run(const std::string& args, bool without_drivers = false) const {
-    const std::string env = without_drivers ? "OCL_ICD_VENDORS=" + shell_quoted((folder_ / "no_vendors").string()) + " " : "";
-    const std::string command = "cd " + shell_quoted(folder_.string()) + " && " + env +
-                                shell_quoted(kProgram.string()) + " " + args + " 2>&1";
-    return run_shell(command);
+    return FolderTest::run(
+        args, without_drivers ? "OCL_ICD_VENDORS=" + shell_quoted((folder_ / "no_vendors").string()) + " " : "");
   }
 
   // What `mctstereo devices` says; "" (and a failure under MCTSTEREO_REQUIRE_OPENCL=1) when this
@@ -67,8 +57,6 @@ class OpenclCli : public ::testing::Test {
     return "";
   }
   bool build_has_opencl() const { return !contains(run("devices").output, "has no opencl backend"); }
-
-  fs::path folder_;
 };
 
 #define SKIP_WITHOUT_OPENCL_DEVICE()                                                     \

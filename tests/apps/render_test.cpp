@@ -104,28 +104,8 @@ std::string ply_of(const std::vector<Point>& points, const PlyOptions& o) {
   return out.str();
 }
 
-class Render : public ::testing::Test {
+class Render : public mctstereo::test::FolderTest {
  protected:
-  void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    folder_ = fs::temp_directory_path() /
-              ("mctstereo_render_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-    fs::remove_all(folder_);
-    fs::create_directories(folder_);
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(folder_, ec);
-  }
-
-  void write(const std::string& name, const std::string& bytes) const {
-    std::ofstream(folder_ / name, std::ios::binary) << bytes;
-  }
-
-  Result run(const std::string& args) const {
-    return run_shell("cd " + shell_quoted(folder_.string()) + " && " + shell_quoted(kProgram.string()) + " " + args +
-                     " 2>&1");
-  }
 
   // Renders `cloud` (a file in the folder) with the view that puts kCloud's points on whole pixels
   // (with yaw 0).
@@ -142,8 +122,6 @@ class Render : public ::testing::Test {
     EXPECT_NE(r.output.find(message), std::string::npos) << args << "\nexpected: " << message << "\ngot: " << r.output;
     EXPECT_FALSE(fs::exists(folder_ / "view.png")) << args;
   }
-
-  fs::path folder_;
 };
 
 cv::Vec3b bgr(std::uint8_t r, std::uint8_t g, std::uint8_t b) { return {b, g, r}; }

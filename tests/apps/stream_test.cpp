@@ -150,19 +150,12 @@ double number_after(const std::string& text, const std::string& label) {
   return std::atof(text.c_str() + at + label.size());
 }
 
-class Stream : public ::testing::Test {
+class Stream : public mctstereo::test::FolderTest {
  protected:
   void SetUp() override {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    folder_ = fs::temp_directory_path() /
-              ("mctstereo_stream_" + std::string(info->name()) + "_" + std::to_string(::getpid()));
-    fs::remove_all(folder_);
+    FolderTest::SetUp();
     fs::create_directories(folder_ / "seq");
     fs::create_directories(folder_ / "out");
-  }
-  void TearDown() override {
-    std::error_code ec;
-    fs::remove_all(folder_, ec);
   }
 
   // Writes the sequence as seq/left_%04d.png and seq/right_%04d.png, numbered from 0.
@@ -192,10 +185,7 @@ class Stream : public ::testing::Test {
     return true;
   }
 
-  Result run(const std::string& args) const {
-    return run_shell("cd " + shell_quoted(folder_.string()) + " && " + shell_quoted(kProgram.string()) +
-                     " stream " + args + " 2>&1");
-  }
+  Result run(const std::string& args) const { return FolderTest::run("stream " + args); }
 
   // A failure with `status` and a one-line message containing `message`.
   void expect_failure(const std::string& args, int status, const std::string& message) const {
@@ -206,8 +196,6 @@ class Stream : public ::testing::Test {
     EXPECT_EQ(r.output.rfind("mctstereo: error: ", 0), 0u) << r.output;
     EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << "one line expected:\n" << r.output;
   }
-
-  fs::path folder_;
 };
 
 // One matching thread: the capture and writing threads of stream share the few cores of a test machine.
