@@ -30,6 +30,7 @@
 namespace {
 
 using mctstereo::test::kData;
+using mctstereo::test::folder_listing;
 using mctstereo::test::kProgram;
 using mctstereo::test::read_text;
 using mctstereo::test::Result;
@@ -46,13 +47,6 @@ std::vector<std::uint8_t> read_bytes(const fs::path& path) {
 void write_bytes(const fs::path& path, const std::vector<std::uint8_t>& bytes) {
   std::ofstream out(path, std::ios::binary);
   out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-}
-
-// Every name in a folder, hidden ones included (a temporary left behind would be hidden).
-std::set<std::string> folder_listing(const fs::path& folder) {
-  std::set<std::string> names;
-  for (const auto& entry : fs::directory_iterator(folder)) names.insert(entry.path().filename().string());
-  return names;
 }
 
 // A PFM file read back: the values in top-to-bottom row order.
@@ -94,25 +88,6 @@ class Cli : public mctstereo::test::FolderTest {
   void SetUp() override {
     FolderTest::SetUp();
     copy_tsukuba_pair();
-  }
-
-  // Runs a command that must fail with `status` and a message containing `message`, leaving the
-  // folder exactly as it was: no output, no temporary, inputs byte for byte the same.
-  void expect_failure(const std::string& args, int status, const std::string& message) const {
-    const std::set<std::string> before = folder_listing(folder_);
-    std::vector<std::vector<std::uint8_t>> contents;
-    for (const std::string& name : before)
-      if (fs::is_regular_file(folder_ / name)) contents.push_back(read_bytes(folder_ / name));
-    const Result r = run(args);
-    EXPECT_EQ(r.status, status) << "mctstereo " << args << "\n" << r.output;
-    EXPECT_NE(r.output.find(message), std::string::npos)
-        << "mctstereo " << args << "\nexpected the message to contain: " << message << "\ngot: " << r.output;
-    EXPECT_EQ(r.output.rfind("mctstereo: error: ", 0), 0u) << r.output;
-    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << "one line expected:\n" << r.output;
-    EXPECT_EQ(folder_listing(folder_), before) << "mctstereo " << args;
-    std::size_t k = 0;
-    for (const std::string& name : before)
-      if (fs::is_regular_file(folder_ / name)) EXPECT_EQ(read_bytes(folder_ / name), contents[k++]) << name;
   }
 };
 

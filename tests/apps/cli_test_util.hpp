@@ -6,12 +6,15 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <set>
 #include <string>
+#include <vector>
 
 namespace mctstereo::test {
 
@@ -45,6 +48,13 @@ inline Result run_shell(const std::string& command) {
 inline std::string read_text(const std::filesystem::path& path) {
   std::ifstream in(path, std::ios::binary);
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+/// Every name in a folder, hidden ones included (a temporary left behind would be hidden).
+inline std::set<std::string> folder_listing(const std::filesystem::path& folder) {
+  std::set<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator(folder)) names.insert(entry.path().filename().string());
+  return names;
 }
 
 /// A test with a folder of its own, named after the suite and the test and removed afterwards, in
@@ -81,6 +91,25 @@ class FolderTest : public ::testing::Test {
   Result run(const std::string& args, const std::string& environment = "") const {
     return run_shell("cd " + shell_quoted(folder_.string()) + " && " + environment + shell_quoted(kProgram.string()) +
                      " " + args + " 2>&1");
+  }
+
+  /// Runs `mctstereo ARGS`, which must fail with `status` and one line containing `message`, leaving
+  /// the folder exactly as it was: no output, no temporary, every file byte for byte the same.
+  void expect_failure(const std::string& args, int status, const std::string& message) const {
+    const std::set<std::string> before = folder_listing(folder_);
+    std::vector<std::string> contents;
+    for (const std::string& name : before)
+      if (std::filesystem::is_regular_file(folder_ / name)) contents.push_back(read_text(folder_ / name));
+    const Result r = run(args);
+    EXPECT_EQ(r.status, status) << "mctstereo " << args << "\n" << r.output;
+    EXPECT_NE(r.output.find(message), std::string::npos)
+        << "mctstereo " << args << "\nexpected the message to contain: " << message << "\ngot: " << r.output;
+    EXPECT_EQ(r.output.rfind("mctstereo: error: ", 0), 0u) << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << "one line expected:\n" << r.output;
+    EXPECT_EQ(folder_listing(folder_), before) << "mctstereo " << args;
+    std::size_t k = 0;
+    for (const std::string& name : before)
+      if (std::filesystem::is_regular_file(folder_ / name)) EXPECT_EQ(read_text(folder_ / name), contents[k++]) << name;
   }
 
   std::filesystem::path folder_;

@@ -27,6 +27,7 @@
 namespace {
 
 using mctstereo::test::kData;
+using mctstereo::test::folder_listing;
 using mctstereo::test::kProgram;
 using mctstereo::test::read_text;
 using mctstereo::test::Result;
@@ -113,12 +114,6 @@ Cloud read_obj(const fs::path& path) {
   return cloud;
 }
 
-std::set<std::string> folder_listing(const fs::path& folder) {
-  std::set<std::string> names;
-  for (const auto& entry : fs::directory_iterator(folder)) names.insert(entry.path().filename().string());
-  return names;
-}
-
 // The geometry the tests give: f = 400 px, B = 0.16 m (or 160 mm), principal point (190, 140),
 // doffs 1.5 px so that d = 0 still has a depth.
 constexpr double kFocal = 400.0, kBaseline = 0.16, kCx = 190.0, kCy = 140.0, kDoffs = 1.5;
@@ -170,18 +165,6 @@ class DepthCli : public mctstereo::test::FolderTest {
   void SetUp() override {
     FolderTest::SetUp();
     copy_tsukuba_pair();
-  }
-
-  // A command that must fail with `status`, one line naming `message`, and leave the folder as it was.
-  void expect_failure(const std::string& args, int status, const std::string& message) const {
-    const std::set<std::string> before = folder_listing(folder_);
-    const Result r = run(args);
-    EXPECT_EQ(r.status, status) << "mctstereo " << args << "\n" << r.output;
-    EXPECT_NE(r.output.find(message), std::string::npos)
-        << "mctstereo " << args << "\nexpected the message to contain: " << message << "\ngot: " << r.output;
-    EXPECT_EQ(r.output.rfind("mctstereo: error: ", 0), 0u) << r.output;
-    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << "one line expected:\n" << r.output;
-    EXPECT_EQ(folder_listing(folder_), before) << "mctstereo " << args;
   }
 };
 
