@@ -35,13 +35,19 @@ struct StageTable {
   decltype(&detail::reference::remove_speckles) remove_speckles;
   decltype(&detail::reference::fill_invalid) fill_invalid;
   decltype(&detail::reference::upscale) upscale;
+  decltype(&detail::reference::sgm_costs) sgm_costs;
+  decltype(&detail::reference::sgm_aggregate) sgm_aggregate;
+  decltype(&detail::reference::sgm_scratch_bytes) sgm_scratch_bytes;
+  decltype(&detail::reference::sgm_select) sgm_select;
+  decltype(&detail::reference::confidence) confidence;
 };
 
 #define MCTSTEREO_STAGE_TABLE(ns)                                                                \
   StageTable {                                                                                   \
     &ns::to_gray, &ns::pyramid_down, &ns::census_transform, &ns::match,                          \
         &ns::match_scratch_bytes, &ns::median_filter, &ns::lr_check, &ns::remove_speckles,       \
-        &ns::fill_invalid, &ns::upscale                                                          \
+        &ns::fill_invalid, &ns::upscale, &ns::sgm_costs, &ns::sgm_aggregate, &ns::sgm_scratch_bytes, \
+        &ns::sgm_select, &ns::confidence                                                         \
   }
 const StageTable kReferenceStages = MCTSTEREO_STAGE_TABLE(detail::reference);
 const StageTable kCpuStages = MCTSTEREO_STAGE_TABLE(detail::cpu);
@@ -59,11 +65,20 @@ struct Level {
   int scale_log2 = 0;  // this level is 2^scale_log2 times smaller than the input
   int dmin = 0, dmax = 0;
   int shd_window = 5;
+  int radius = 0;  // search radius around the coarser level's priors
   bool refine = true;
   Plane<std::uint8_t> image[2];
   CensusCodes codes[2];
   Plane<std::int16_t> disparity[2], scratch[2];
+  detail::SgmVolume sgm;  // band SGM: candidates, costs and sums (storage shared by the levels)
 };
+
+// The band width of a level for SGM: its whole range at the coarsest level, else at most
+// max_band; never more than the candidates a pixel of the level can have (its width).
+int sgm_band_width(const StereoParams& p, int dmin, int dmax, int width, bool coarsest) {
+  const int range = std::min(dmax - dmin + 1, width);
+  return coarsest ? range : std::min(range, p.sgm_max_band);
+}
 
 class Stopwatch {
  public:
@@ -106,6 +121,13 @@ struct Matcher::Impl {
   std::vector<Level> levels;                      // levels[0] is the finest (working scale)
   detail::MatchScratch match_scratch;
   detail::SpeckleScratch speckle_scratch;
+  // Band SGM: the cost and sum storage every level's volume uses, the scratch of its stages, the
+  // finest level's winner margins and confidence, and the confidence at the output size.
+  std::unique_ptr<std::uint16_t[], detail::FreeDeleter> sgm_cost, sgm_sum;
+  detail::SgmScratch sgm_scratch;
+  Plane<std::uint8_t> margin, confidence_q8;
+  Plane<float> out_confidence;
+  bool confidence_current = false;
   Plane<std::int16_t> upscaled[2];
   Plane<std::int16_t> out_q4[2];
   Plane<float> out_float;
@@ -117,6 +139,14 @@ struct Matcher::Impl {
     const std::string err = p.validate(w, h);
     if (!err.empty()) throw std::invalid_argument(err);
     if (o.threads < 0) throw std::invalid_argument("threads = " + std::to_string(o.threads) + " must be >= 0");
+    if (p.sgm() && (b == Backend::OpenCL || b == Backend::Auto)) {
+      if (b == Backend::OpenCL)
+        throw std::invalid_argument("the opencl backend does not run SGM aggregation (aggregation = " +
+                                    std::string(to_string(p.aggregation)) +
+                                    "): use the cpu backend, or aggregation = box");
+      backend = Backend::Cpu;
+      notice = "SGM aggregation runs on the cpu backend only: running on the cpu backend";
+    }
     resolve_backend();
     stages = backend == Backend::Reference ? &kReferenceStages : &kCpuStages;
     threads = backend == Backend::Reference ? 1 : (o.threads > 0 ? o.threads : omp_get_max_threads());
@@ -138,6 +168,8 @@ struct Matcher::Impl {
     }
     levels.resize(p.pyramid_levels);
     int max_range = 1;
+    std::size_t sgm_entries = 0;
+    int max_stride = 16;
     for (int l = 0; l < p.pyramid_levels; ++l) {
       Level& L = levels[l];
       L.width = lw;
@@ -146,6 +178,7 @@ struct Matcher::Impl {
       L.dmin = detail::level_min(p.min_disparity, L.scale_log2);
       L.dmax = detail::level_max(p.max_disparity(), L.scale_log2);
       L.shd_window = l == 0 ? p.shd_window : p.coarse_shd_window;
+      L.radius = l == 0 ? p.finest_radius() : p.search_radius;
       L.refine = l == 0 || p.refine_all_levels;
       max_range = std::max(max_range, L.dmax - L.dmin + 1);
       const int views = need_right ? 2 : 1;
@@ -159,8 +192,29 @@ struct Matcher::Impl {
         L.disparity[v].reset(lw, lh);
         L.scratch[v].reset(lw, lh);
       }
+      if (p.sgm()) {
+        const int band = sgm_band_width(p, L.dmin, L.dmax, lw, l + 1 == p.pyramid_levels);
+        sgm_entries = std::max(sgm_entries, detail::SgmVolume::entries_for(lw, lh, band));
+        max_stride = std::max(max_stride, detail::SgmVolume::stride_for(band));
+        L.sgm.reset(lw, lh, band, detail::census_words(p.census_window), nullptr, nullptr);
+      }
       lw = (lw + 1) / 2;
       lh = (lh + 1) / 2;
+    }
+    if (p.sgm()) {
+      sgm_cost = detail::allocate_aligned<std::uint16_t>(sgm_entries);
+      sgm_sum = detail::allocate_aligned<std::uint16_t>(sgm_entries);
+      for (Level& L : levels) {
+        L.sgm.cost = sgm_cost.get();
+        L.sgm.sum = sgm_sum.get();
+      }
+      sgm_scratch.threads = threads;
+      sgm_scratch.bytes_per_thread =
+          (stages->sgm_scratch_bytes(levels[0].width, levels[0].height, max_stride) + 63) / 64 * 64;
+      sgm_scratch.data = detail::allocate_aligned<std::uint8_t>(sgm_scratch.bytes_per_thread * threads);
+      margin.reset(levels[0].width, levels[0].height);
+      confidence_q8.reset(levels[0].width, levels[0].height);
+      out_confidence.reset(w, h);
     }
     const int max_shd = std::max(p.shd_window, p.coarse_shd_window);
     match_scratch.threads = threads;
@@ -253,6 +307,10 @@ struct Matcher::Impl {
     const int speckle = params.speckle_size >> (2 * L.scale_log2);
     if (speckle > 1)
       for (int v = 0; v < kept; ++v) stages->remove_speckles(L.disparity[v], speckle, 16, speckle_scratch);
+    // The confidence of the final map: what survived the checks, before the fill guesses.
+    if (finest && params.sgm())
+      stages->confidence(margin, L.disparity[0], need_right ? &L.disparity[1] : nullptr, params.lr_threshold,
+                         confidence_q8);
     for (int v = 0; v < kept; ++v) stages->fill_invalid(L.disparity[v], params.fill);
     if (params.post_median_size > 0) {
       for (int v = 0; v < kept; ++v) {
@@ -260,6 +318,31 @@ struct Matcher::Impl {
         std::swap(L.disparity[v], L.scratch[v]);
       }
     }
+  }
+
+  // Band SGM at level l: band costs around the coarser left map, paths, winners of both views.
+  void match_sgm(int l, const Plane<std::int16_t>* prior) {
+    Level& L = levels[l];
+    const detail::SgmBandConfig band{L.dmin, L.dmax, L.radius, params.prior_size, L.sgm.band};
+    stages->sgm_costs(L.codes[0], L.codes[1], prior, band, L.shd_window, L.sgm);
+    const detail::SgmPathConfig paths{params.sgm_paths(), params.sgm_p1, params.sgm_p2, params.sgm_p2_k};
+    stages->sgm_aggregate(level_image(l, 0), paths, sgm_scratch, L.sgm);
+    const detail::SgmSelectConfig select{params.subpixel && l == 0, params.uniqueness_ratio};
+    stages->sgm_select(L.sgm, select, sgm_scratch, L.disparity[0], need_right ? &L.disparity[1] : nullptr,
+                       l == 0 ? &margin : nullptr);
+  }
+
+  // The confidence at the output size (pixels of the working scale replicated s x s).
+  void write_confidence() {
+    const int s = params.working_scale;
+    const bool threaded = backend == Backend::Cpu;
+#pragma omp parallel for schedule(static) if (threaded) num_threads(threads)
+    for (int y = 0; y < height; ++y) {
+      const std::uint8_t* src = confidence_q8.row(std::min(y / s, confidence_q8.height() - 1));
+      float* dst = out_confidence.row(y);
+      for (int x = 0; x < width; ++x) dst[x] = src[std::min(x / s, confidence_q8.width() - 1)] * (1.0f / 255.0f);
+    }
+    confidence_current = true;
   }
 
   // Internal maps (kInvalid) to the caller's conventions: Q4 with (dmin - 1) * 16, float with NaN.
@@ -320,6 +403,7 @@ struct Matcher::Impl {
     }
 #endif
     for (double& t : slot_ms) t = 0;
+    confidence_current = false;
     Stopwatch frame, clock;
     frame.start();
     clock.start();
@@ -340,9 +424,16 @@ struct Matcher::Impl {
       slot_ms[kCensus] += clock.lap_ms();
 
       const bool coarsest = l + 1 == static_cast<int>(levels.size());
+      if (params.sgm()) {
+        match_sgm(l, coarsest ? nullptr : &levels[l + 1].disparity[0]);
+        slot_ms[kMatch] += clock.lap_ms();
+        if (L.refine) refine(L, l == 0);
+        slot_ms[kRefine] += clock.lap_ms();
+        continue;
+      }
       for (int v = 0; v < views; ++v) {
         const Plane<std::int16_t>* prior = coarsest ? nullptr : &levels[l + 1].disparity[v];
-        const auto ranges = detail::SearchRanges::around(prior, L.dmin, L.dmax, params.search_radius);
+        const auto ranges = detail::SearchRanges::around(prior, L.dmin, L.dmax, L.radius);
         const detail::MatchConfig match{v == 0 ? -1 : +1, L.shd_window, params.subpixel && l == 0,
                                         params.uniqueness_ratio};
         stages->match(L.codes[v], L.codes[1 - v], ranges, match, match_scratch, L.disparity[v]);
@@ -392,6 +483,12 @@ MapView<const float> Matcher::disparity() const {
 #endif
   if (!impl_->float_current && impl_->float_source != nullptr) impl_->write_float();
   const auto& p = impl_->out_float;
+  return {p.row(0), p.width(), p.height(), p.stride()};
+}
+MapView<const float> Matcher::confidence() const {
+  if (!impl_->params.sgm() || impl_->timings.empty()) return {};
+  if (!impl_->confidence_current) impl_->write_confidence();
+  const auto& p = impl_->out_confidence;
   return {p.row(0), p.width(), p.height(), p.stride()};
 }
 MapView<const std::int16_t> Matcher::right_disparity_q4() const {

@@ -1,5 +1,6 @@
 #include "mctstereo/params.hpp"
 
+#include <algorithm>
 #include <sstream>
 #include <stdexcept>
 
@@ -41,19 +42,43 @@ StereoParams make_realtime() {
   return p;
 }
 
-StereoParams make_balanced() { return StereoParams{}; }
-
-StereoParams make_quality() {
+// Band SGM as docs/PIPELINE.md gives it: CT 5x5, a 3x3 box for the cost, 4 paths with adaptive P2,
+// the 5x5 prior, uniqueness 10 %, median 5, LR check, speckle removal and the background fill.
+StereoParams make_band_sgm() {
   StereoParams p;
   p.census = CensusKind::Census;
   p.census_window = 5;
-  p.shd_window = 5;
-  p.pyramid_levels = 1;
+  p.aggregation = Aggregation::Sgm4;
+  p.shd_window = 3;
+  p.coarse_shd_window = 3;
+  p.sgm_p1 = 40;
+  p.sgm_p2 = 300;
+  p.sgm_p2_k = 8;
+  p.prior_size = 5;
+  p.pyramid_levels = 3;
+  p.search_radius = 3;
+  p.uniqueness_ratio = 10;
   p.median_size = 5;
-  p.post_median_size = 5;
   p.lr_check = true;
   p.speckle_size = 100;
   p.fill = FillMode::NearestLower;
+  p.post_median_size = 5;
+  p.refine_all_levels = true;
+  return p;
+}
+
+StereoParams make_balanced() { return make_band_sgm(); }
+
+StereoParams make_quality() {
+  StereoParams p = make_band_sgm();
+  p.finest_search_radius = 6;  // a wider band where the map is final
+  return p;
+}
+
+// One level, the whole range, 4 paths: what the band costs in quality is measured against this.
+StereoParams make_sgm_full() {
+  StereoParams p = make_band_sgm();
+  p.pyramid_levels = 1;
   return p;
 }
 
@@ -90,10 +115,12 @@ StereoParams make_mr_mct_5x5() {
 constexpr PresetEntry kPresets[] = {
     {"realtime", "CT 5x5, 4 levels, search radius 1, median 3, LR check and median 3 after filling at the finest level: the fastest preset, for robots and AR",
      make_realtime},
-    {"balanced", "CT 5x5, 3 levels, search radius 3, median 3, LR check, speckle removal, median after filling: the default",
+    {"balanced", "band SGM: CT 5x5, 3 levels, 4 paths inside the coarse-to-fine band (radius 3, 5x5 prior), median 5, LR check, speckle removal, median after filling: the default",
      make_balanced},
-    {"quality", "CT 5x5, one level with the full search, median 5, LR check, speckle removal, median 5 after filling: the best maps",
+    {"quality", "band SGM as balanced with a wider band at the finest level (radius 6): the best maps",
      make_quality},
+    {"sgm-full", "SGM over the whole range at one level, 4 paths, tuned as balanced: the yardstick of what the band costs",
+     make_sgm_full},
     {"mct-full", "thesis MCT-full: MCT 9x9 (Gaussian mean), one level with the full search", make_mct_full},
     {"mr-mct-full", "thesis MR-MCT-full: MCT 9x9 (Gaussian mean), 3 levels, search radius 4", make_mr_mct_full},
     {"mr-mct-5x5", "thesis MR-MCT-5x5: MCT 5x5 (Gaussian mean), 3 levels", make_mr_mct_5x5},
@@ -165,6 +192,36 @@ std::string StereoParams::validate() const {
     fail("uniqueness_ratio = " + std::to_string(uniqueness_ratio) + " must be in [0, 100]");
   if (!is_one_of(working_scale, {1, 2, 4}))
     fail("working_scale = " + std::to_string(working_scale) + " must be 1, 2 or 4");
+  if (finest_search_radius < -1 || finest_search_radius > 16)
+    fail("finest_search_radius = " + std::to_string(finest_search_radius) + " must be in [-1, 16] (-1: search_radius)");
+  if (!is_one_of(prior_size, {3, 5}))
+    fail("prior_size = " + std::to_string(prior_size) + " must be 3 or 5");
+  else if (prior_size == 5 && !sgm())
+    fail("prior_size = 5 needs SGM aggregation (the box matcher searches around the 3x3 prior)");
+  if (sgm_p1 < 0 || sgm_p1 > kMaxSgmPenalty)
+    fail("sgm_p1 = " + std::to_string(sgm_p1) + " must be in [0, " + std::to_string(kMaxSgmPenalty) + "]");
+  if (sgm_p2 < 0 || sgm_p2 > kMaxSgmPenalty)
+    fail("sgm_p2 = " + std::to_string(sgm_p2) + " must be in [0, " + std::to_string(kMaxSgmPenalty) + "]");
+  else if (sgm_p1 > sgm_p2)
+    fail("sgm_p1 = " + std::to_string(sgm_p1) + " must not exceed sgm_p2 = " + std::to_string(sgm_p2));
+  if (sgm_p2_k < 0 || sgm_p2_k > 255)
+    fail("sgm_p2_k = " + std::to_string(sgm_p2_k) + " must be in [0, 255] (0: constant P2)");
+  if (sgm_max_band < 1 || sgm_max_band > 255)
+    fail("sgm_max_band = " + std::to_string(sgm_max_band) + " must be in [1, 255]");
+  if (sgm() && is_one_of(census_window, {3, 5, 7, 9}) && is_one_of(shd_window, {1, 3, 5, 7, 9}) &&
+      is_one_of(coarse_shd_window, {1, 3, 5, 7, 9}) && sgm_p2 >= 0 && sgm_p2 <= kMaxSgmPenalty) {
+    // Path values stay below C_max + P2 and their sum below paths x (C_max + P2): 16-bit sums, with
+    // 65535 kept as the "not a candidate" mark.
+    const int window = std::max(shd_window, coarse_shd_window);
+    const int c_max = window * window * (census_window * census_window - 1);
+    const long long bound = static_cast<long long>(sgm_paths()) * (c_max + sgm_p2);
+    if (bound > kMaxSgmSum)
+      fail("SGM sums could overflow 16 bits: paths (" + std::to_string(sgm_paths()) + ") x (largest cost " +
+           std::to_string(c_max) + " = window " + std::to_string(window) + "^2 x " +
+           std::to_string(census_window * census_window - 1) + " census bits, + sgm_p2 " + std::to_string(sgm_p2) +
+           ") = " + std::to_string(bound) + " exceeds " + std::to_string(kMaxSgmSum) +
+           ": lower sgm_p2, the SHD windows or the census window, or use 4 paths");
+  }
   return err.str();
 }
 
@@ -185,6 +242,15 @@ std::string StereoParams::validate(int width, int height) const {
     fail("num_disparities = " + std::to_string(num_disparities) + " is wider than the image (" +
          std::to_string(width) + " px)");
   return err;
+}
+
+std::string_view to_string(Aggregation aggregation) {
+  switch (aggregation) {
+    case Aggregation::Box: return "box";
+    case Aggregation::Sgm4: return "sgm4";
+    case Aggregation::Sgm8: return "sgm8";
+  }
+  return "?";
 }
 
 std::string_view to_string(CensusKind kind) { return kind == CensusKind::Census ? "ct" : "mct"; }

@@ -136,6 +136,140 @@ struct SearchRanges {
   }
 };
 
+/// Band SGM (docs/PIPELINE.md, "Band SGM"): the candidates, costs and path sums of one level,
+/// for the left view as reference (the right view's map comes from the same sums).
+///
+/// Pixel (x, y) holds count(x, y) candidates lo(x, y) .. lo(x, y) + count - 1, all with
+/// 0 <= x - d < W, in a slot of `stride` 16-bit entries at index (y W + x) stride; entries past
+/// count hold kSgmInf. Costs are the a x a box sums of Hamming distances (as match()), sums the
+/// path values added up.
+inline constexpr std::uint16_t kSgmInf = 0xFFFF;
+
+struct SgmVolume {
+  int width = 0, height = 0;
+  int band = 0;    ///< most candidates of a pixel at this level
+  int stride = 0;  ///< entries per pixel slot: band rounded up to a multiple of 16
+  Plane<std::int16_t> lo, count;
+  /// W x H x stride entries each, in storage the caller owns: the levels run one after the other,
+  /// so the driver gives all of them the same storage, sized for the largest.
+  std::uint16_t* cost = nullptr;
+  std::uint16_t* sum = nullptr;
+  /// cpu backend: the right view's codes mirrored (x -> W - 1 - x), so that the codes of a pixel's
+  /// candidates lo, lo + 1, ... lie at increasing addresses.
+  std::array<Plane<std::uint32_t>, 3> mirrored;
+
+  void reset(int w, int h, int band_width, int words, std::uint16_t* cost_storage, std::uint16_t* sum_storage) {
+    width = w;
+    height = h;
+    band = band_width;
+    stride = stride_for(band_width);
+    lo.reset(w, h);
+    count.reset(w, h);
+    cost = cost_storage;
+    sum = sum_storage;
+    for (int k = 0; k < 3; ++k) mirrored[k] = {};
+    for (int k = 0; k < words; ++k) mirrored[k].reset(w, h, mirror_pad(stride));
+  }
+  static int stride_for(int band_width) { return (band_width + 15) / 16 * 16; }
+  static int mirror_pad(int slot_stride) { return slot_stride + 16; }
+  /// Entries of cost (and of sum) for a level.
+  static std::size_t entries_for(int w, int h, int band_width) {
+    return static_cast<std::size_t>(w) * h * stride_for(band_width);
+  }
+  /// Bytes of a level's own planes (not the shared storage).
+  static std::size_t plane_bytes_for(int w, int h, int band_width, int words) {
+    return 2 * Plane<std::int16_t>::bytes_for(w, h) +
+           words * Plane<std::uint32_t>::bytes_for(w, h, mirror_pad(stride_for(band_width)));
+  }
+  std::uint16_t* cost_at(int x, int y) { return cost + (static_cast<std::size_t>(y) * width + x) * stride; }
+  const std::uint16_t* cost_at(int x, int y) const { return cost + (static_cast<std::size_t>(y) * width + x) * stride; }
+  std::uint16_t* sum_at(int x, int y) { return sum + (static_cast<std::size_t>(y) * width + x) * stride; }
+  const std::uint16_t* sum_at(int x, int y) const { return sum + (static_cast<std::size_t>(y) * width + x) * stride; }
+};
+
+/// How one level's band is made from the coarser map.
+struct SgmBandConfig {
+  int dmin = 0, dmax = 0;  ///< the level's range
+  int radius = 3;          ///< r around the priors
+  int prior_size = 5;      ///< 3 or 5: the coarse neighbourhood whose priors span the band
+  int max_band = 32;       ///< cut wider bands to this (the volume's band)
+};
+
+struct SgmPathConfig {
+  int paths = 4;  ///< 4 or 8
+  int p1 = 40, p2 = 300, p2_k = 8;
+};
+
+struct SgmSelectConfig {
+  bool subpixel = false;
+  int uniqueness_ratio = 0;
+};
+
+/// Scratch of the path aggregation, allocated once per matcher.
+struct SgmScratch {
+  std::unique_ptr<std::uint8_t[], FreeDeleter> data;
+  std::size_t bytes_per_thread = 0;
+  int threads = 1;
+};
+
+/// The band rule of one pixel (left view): [2 min - r, 2 max + r] over the valid priors of the
+/// prior_size x prior_size coarse neighbourhood of (x/2, y/2), clipped to the level range (at least
+/// one candidate stays); no prior or an invalid centre: the whole range. Then clipped to the
+/// candidates inside the image (0 <= x - d < W; none: an empty band), and a band wider than
+/// max_band is cut to max_band candidates around c = 2 x the centre prior (the middle of the
+/// range without one): lo = clamp(c - max_band / 2, lo, hi - max_band + 1).
+inline Interval sgm_band_at(const Plane<std::int16_t>* coarse, const SgmBandConfig& config, int width, int x, int y) {
+  int lo = config.dmin, hi = config.dmax, centre = (config.dmin + config.dmax) >> 1;
+  if (coarse != nullptr) {
+    const int cw = coarse->width(), ch = coarse->height();
+    const int cx = std::min(x / 2, cw - 1), cy = std::min(y / 2, ch - 1);
+    if (coarse->at(cx, cy) != kInvalid) {
+      centre = 2 * (coarse->at(cx, cy) >> 4);
+      const int h = config.prior_size / 2;
+      int mn = 1 << 20, mx = -(1 << 20);
+      for (int j = -h; j <= h; ++j) {
+        for (int i = -h; i <= h; ++i) {
+          const int v = coarse->at(clamp_index(cx + i, cw), clamp_index(cy + j, ch));
+          if (v == kInvalid) continue;
+          mn = std::min(mn, v >> 4);
+          mx = std::max(mx, v >> 4);
+        }
+      }
+      lo = std::min(std::max(config.dmin, 2 * mn - config.radius), config.dmax);
+      hi = std::max(std::min(config.dmax, 2 * mx + config.radius), config.dmin);
+    }
+  }
+  lo = std::max(lo, x - width + 1);
+  hi = std::min(hi, x);
+  if (hi - lo + 1 > config.max_band) lo = std::clamp(centre - config.max_band / 2, lo, hi - config.max_band + 1);
+  return {lo, lo > hi ? lo - 1 : std::min(hi, lo + config.max_band - 1)};
+}
+
+/// Confidence of one pixel: see the stage confidence().
+inline std::uint8_t confidence_at(const Plane<std::uint8_t>& margin, const Plane<std::int16_t>& checked,
+                                  const Plane<std::int16_t>* right, int threshold, int x, int y) {
+  const int v = checked.at(x, y);
+  if (v == kInvalid) return 0;
+  const int den = 16 * (threshold + 1);
+  int num = den;
+  if (right != nullptr) {
+    const int xr = x - ((v + 8) >> 4);
+    const int r = xr >= 0 && xr < checked.width() ? right->at(xr, y) : kInvalid;
+    num = r == kInvalid ? 0 : std::max(0, den - (v > r ? v - r : r - v));
+  }
+  return static_cast<std::uint8_t>(margin.at(x, y) * num / den);
+}
+
+/// Adaptive P2 of a path step between gray values a and b.
+inline int sgm_p2_at(const SgmPathConfig& c, int a, int b) {
+  if (c.p2_k == 0) return c.p2;
+  const int diff = a > b ? a - b : b - a;
+  return std::max(c.p1, (c.p2 * c.p2_k) / (c.p2_k + diff));
+}
+
+/// The path steps (dx, dy) in the order their values are added: 4 paths take the first four.
+inline constexpr int kSgmSteps[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {-1, 1}, {1, -1}, {-1, -1}};
+
 /// Level range [floor(dmin / 2^l), ceil(dmax / 2^l)].
 inline int level_min(int dmin, int l) { return dmin >> l; }  // arithmetic shift = floor
 inline int level_max(int dmax, int l) { return -((-dmax) >> l); }
@@ -175,7 +309,25 @@ inline int level_max(int dmax, int l) { return -((-dmax) >> l); }
   /* Replicates each pixel factor x factor and multiplies by factor, clamped to [lo_q4, hi_q4]; */ \
   /* dst may be smaller than factor x src (the excess is cut).                                  */ \
   void upscale(const Plane<std::int16_t>& src, int factor, int lo_q4, int hi_q4,                  \
-               Plane<std::int16_t>& dst);
+               Plane<std::int16_t>& dst);                                                          \
+  /* Band SGM. The band of every pixel (sgm_band_at) and its a x a SHD costs (left reference). */ \
+  void sgm_costs(const CensusCodes& left, const CensusCodes& right, const Plane<std::int16_t>* coarse, \
+                 const SgmBandConfig& config, int shd_window, SgmVolume& volume);                  \
+  /* The paths' values over each pixel's band, added up into volume.sum; gray: the left image.  */ \
+  void sgm_aggregate(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, SgmScratch& scratch, \
+                     SgmVolume& volume);                                                           \
+  /* Scratch bytes one thread of sgm_aggregate or sgm_select needs (level w x h, slot stride). */ \
+  std::size_t sgm_scratch_bytes(int width, int height, int stride);                              \
+  /* Confidence in 0..255 at the pixels valid in `checked` (the map after the LR check and      */ \
+  /* speckle removal): margin x agreement, agreement = max(0, 16 (t + 1) - |v - dR|) / (16(t+1)) */ \
+  /* with dR the right map at x - ((v + 8) >> 4) (1 without a right map); 0 elsewhere.          */ \
+  void confidence(const Plane<std::uint8_t>& margin, const Plane<std::int16_t>& checked,            \
+                  const Plane<std::int16_t>* right, int threshold, Plane<std::uint8_t>& dst);        \
+  /* Winners on the sums: the left map, the right map when right != nullptr (from the same sums:*/ \
+  /* S_R(x, d) = S(x + d, d) where that left pixel searched d), and the left winners' margin     */ \
+  /* 255 (S2 - S1) / S2 (S2: best sum outside d-1..d+1; 0 without one) when margin != nullptr.  */ \
+  void sgm_select(const SgmVolume& volume, const SgmSelectConfig& config, SgmScratch& scratch,     \
+                  Plane<std::int16_t>& left, Plane<std::int16_t>* right, Plane<std::uint8_t>* margin);
 
 namespace reference {
 MCTSTEREO_DECLARE_STAGES

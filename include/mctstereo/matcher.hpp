@@ -82,6 +82,11 @@ class Matcher {
   /// each compute() (a pass over the map, or a download from the OpenCL device), so a caller that
   /// only reads disparity_q4() does not pay for it; allocates nothing.
   MapView<const float> disparity() const;
+  /// Confidence of each pixel of the left map in [0, 1] (docs/PIPELINE.md, "Confidence"): the
+  /// winner's margin over the best sum outside d-1..d+1, times the left-right agreement; 0 where the
+  /// checks invalidated the pixel and the fill guessed its value. Made by the first call after each
+  /// compute(); allocates nothing. Empty (null data) before the first frame and for box aggregation.
+  MapView<const float> confidence() const;
   /// Right-view disparity (Q4; the right pixel x matches left x + d), refined like the left one.
   /// Empty (null data) unless MatcherOptions::compute_right.
   MapView<const std::int16_t> right_disparity_q4() const;

@@ -26,7 +26,20 @@ enum class FillMode {
   NearestLower,  ///< Smaller of the nearest valid values on the left and on the right (background wins).
 };
 
-/// Every parameter of the pipeline. Defaults are the `balanced` preset.
+/// How the matching costs of a level are aggregated before the winner is chosen.
+enum class Aggregation {
+  Box,   ///< a x a box sums of Hamming distances (the fused local matcher)
+  Sgm4,  ///< band SGM: semi-global paths over each pixel's candidate band, 4 paths (rows, columns)
+  Sgm8,  ///< band SGM with 8 paths (rows, columns and both diagonals)
+};
+
+/// Largest SGM penalty P1 or P2.
+inline constexpr int kMaxSgmPenalty = 16383;
+/// Largest sum of SGM path values that the 16-bit sums hold (65535 marks a non-candidate).
+inline constexpr int kMaxSgmSum = 65534;
+
+/// Every parameter of the pipeline. The defaults are the local (box) pipeline; preset("balanced"),
+/// the program's default, is band SGM.
 ///
 /// Disparity d means: the left pixel (x, y) matches the right pixel (x - d, y).
 /// All disparities and thresholds are in pixels of the full-resolution input.
@@ -77,12 +90,41 @@ struct StereoParams {
   /// Refine (median, LR check, speckle, fill) at every pyramid level rather than the finest only.
   bool refine_all_levels = true;
 
+  /// Cost aggregation: box sums as the thesis, or semi-global paths inside the coarse-to-fine band
+  /// (docs/PIPELINE.md, "Band SGM"). With SGM, shd_window and coarse_shd_window are the box of the
+  /// matching cost C that the paths aggregate.
+  Aggregation aggregation = Aggregation::Box;
+  /// SGM penalty for a step of one disparity between neighbours along a path. Range [0, 16383],
+  /// units of the cost C (Hamming bits).
+  int sgm_p1 = 40;
+  /// SGM penalty for a jump of more than one disparity. Range [sgm_p1, 16383], units of C.
+  int sgm_p2 = 300;
+  /// Adaptive P2: P2' = max(P1, P2 k / (k + |I(p) - I(q)|)) with k = sgm_p2_k and I the level's gray
+  /// image, so that jumps are cheaper across intensity edges. 0 = constant P2. Range [0, 255].
+  int sgm_p2_k = 8;
+  /// Side of the coarser map's neighbourhood around (x/2, y/2) whose priors span a pixel's search
+  /// range: 3 or 5. 5 (SGM only) keeps both surfaces of a depth edge in the band, so that the paths
+  /// can move the edge.
+  int prior_size = 3;
+  /// Search radius r at the finest level: -1 = search_radius. Range [-1, 16].
+  int finest_search_radius = -1;
+  /// SGM: most candidates per pixel at a level with a prior (the band is stored as W x H x this).
+  /// A band whose priors span more is cut to this width around the pixel's own prior. The coarsest
+  /// level (and sgm-full) holds its whole range. Range [1, 255].
+  int sgm_max_band = 32;
+
   /// Working scale s: 1, 2 or 4. The pipeline runs on the input reduced s times (binomial pyramid)
   /// and the result is replicated s x s with disparities multiplied by s.
   int working_scale = 1;
 
   /// Largest disparity searched: min_disparity + num_disparities - 1.
   int max_disparity() const { return min_disparity + num_disparities - 1; }
+  /// Whether the aggregation is semi-global.
+  bool sgm() const { return aggregation != Aggregation::Box; }
+  /// SGM paths: 4 or 8 (0 for box aggregation).
+  int sgm_paths() const { return aggregation == Aggregation::Sgm4 ? 4 : aggregation == Aggregation::Sgm8 ? 8 : 0; }
+  /// The search radius of the finest level.
+  int finest_radius() const { return finest_search_radius < 0 ? search_radius : finest_search_radius; }
 
   /// Checks every parameter and their combination. Returns an empty string when valid,
   /// otherwise one message per problem (joined by newlines) naming the parameter and its range.
@@ -91,7 +133,8 @@ struct StereoParams {
   std::string validate(int width, int height) const;
 };
 
-/// Named presets: "realtime", "balanced", "quality", "mct-full", "mr-mct-full", "mr-mct-5x5".
+/// Named presets: "realtime", "balanced", "quality", "sgm-full", "mct-full", "mr-mct-full",
+/// "mr-mct-5x5".
 /// Throws std::invalid_argument naming the known presets for an unknown name.
 /// The disparity range of the returned parameters is the default; set it afterwards.
 StereoParams preset(std::string_view name);
@@ -103,5 +146,6 @@ std::string_view preset_description(std::string_view name);
 std::string_view to_string(CensusKind kind);
 std::string_view to_string(MeanKernel kernel);
 std::string_view to_string(FillMode mode);
+std::string_view to_string(Aggregation aggregation);
 
 }  // namespace mctstereo

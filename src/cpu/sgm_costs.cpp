@@ -1,0 +1,203 @@
+// Band SGM costs with Highway SIMD over a pixel's candidates, OpenMP over rows.
+//
+// The cost of candidate lo + k of pixel x is a sum over the a x a window of
+// popcount(left(x + i, y + j) XOR right(x + i - lo - k, y + j)): along k the right view's codes run
+// backwards. The right view's codes are therefore first mirrored (m(t) = right(W - 1 - t), with
+// clamped columns in the padding), so that the codes of candidates k = 0, 1, ... lie at the
+// increasing addresses t = W - 1 - x - i + lo + k and one unaligned load brings a vector of them.
+// Mirrored planes carry stride + 16 padding columns: a valid candidate reads t in [-h, W + h), and
+// the lanes past a pixel's count (masked to kSgmInf) at most a slot further.
+//
+// The band of a pixel depends on its coarse pixel (x/2, y/2) and then on x through the clip to
+// the image: the prior's minima and maxima over the prior_size x prior_size neighbourhood are
+// computed once per coarse pixel of a row with running column extrema, as sgm_band_at() does per
+// pixel.
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "cpu/sgm_costs.cpp"
+#ifndef HWY_WANT_AVX3_DL
+#define HWY_WANT_AVX3_DL
+#endif
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
+#include <algorithm>
+#include <vector>
+
+#include "stages.hpp"
+
+#ifndef MCTSTEREO_CPU_SGM_COSTS_ONCE
+#define MCTSTEREO_CPU_SGM_COSTS_ONCE
+namespace mctstereo::detail::cpu {
+
+// The band of every coarse pixel of coarse row cy before the clip to the image: [lo, hi] and the
+// centre c (sgm_band_at()'s terms), in lo_c, hi_c, centre_c (cw entries each).
+inline void coarse_bands(const Plane<std::int16_t>& coarse, const SgmBandConfig& config, int cy, int* lo_c, int* hi_c,
+                         int* centre_c, int* col_min, int* col_max) {
+  const int cw = coarse.width(), ch = coarse.height(), h = config.prior_size / 2;
+  constexpr int kNone = 1 << 20;
+  for (int cx = 0; cx < cw; ++cx) {
+    int mn = kNone, mx = -kNone;
+    for (int j = -h; j <= h; ++j) {
+      const int v = coarse.at(cx, clamp_index(cy + j, ch));
+      if (v == kInvalid) continue;
+      mn = std::min(mn, v >> 4);
+      mx = std::max(mx, v >> 4);
+    }
+    col_min[cx] = mn;
+    col_max[cx] = mx;
+  }
+  for (int cx = 0; cx < cw; ++cx) {
+    const int centre = coarse.at(cx, cy);
+    if (centre == kInvalid) {
+      lo_c[cx] = config.dmin;
+      hi_c[cx] = config.dmax;
+      centre_c[cx] = (config.dmin + config.dmax) >> 1;
+      continue;
+    }
+    int mn = kNone, mx = -kNone;
+    for (int i = -h; i <= h; ++i) {
+      const int c = clamp_index(cx + i, cw);
+      mn = std::min(mn, col_min[c]);
+      mx = std::max(mx, col_max[c]);
+    }
+    lo_c[cx] = std::min(std::max(config.dmin, 2 * mn - config.radius), config.dmax);
+    hi_c[cx] = std::max(std::min(config.dmax, 2 * mx + config.radius), config.dmin);
+    centre_c[cx] = 2 * (centre >> 4);
+  }
+}
+
+}  // namespace mctstereo::detail::cpu
+#endif
+
+HWY_BEFORE_NAMESPACE();
+namespace mctstereo::detail::cpu::HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+using DU32 = hn::CappedTag<std::uint32_t, 16>;
+using DI32 = hn::RebindToSigned<DU32>;
+using DU16 = hn::Rebind<std::uint16_t, DU32>;
+
+void MirrorCodes(const CensusCodes& right, SgmVolume& v) {
+  const int w = v.width, h = v.height;
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < h; ++y) {
+    for (int k = 0; k < right.words; ++k) {
+      const std::uint32_t* src = right.plane[k].row(y);
+      std::uint32_t* dst = v.mirrored[k].row(y);
+      const int pad = v.mirrored[k].pad();
+      for (int t = -pad; t < w + pad; ++t) dst[t] = src[clamp_index(w - 1 - t, w)];
+    }
+  }
+}
+
+// Costs of one pixel's candidates k = 0 .. stride - 1 (those past count are kSgmInf).
+template <int kWords, int kA>
+HWY_INLINE void PixelCosts(const std::uint32_t* const* left_rows, const std::uint32_t* const* mirror_rows, int x,
+                           int w, int lo, int count, int stride, std::uint16_t* HWY_RESTRICT out) {
+  constexpr int kH = kA / 2;
+  const DU32 du32;
+  const DI32 di32;
+  const DU16 du16;
+  const int n = static_cast<int>(hn::Lanes(du32));
+  if (count == 0) {
+    for (int k = 0; k < stride; ++k) out[k] = kSgmInf;  // lo may lie anywhere: read nothing
+    return;
+  }
+  const auto inf = hn::Set(di32, kSgmInf);
+  const auto iota = hn::Iota(di32, 0);
+  for (int k0 = 0; k0 < stride; k0 += n) {
+    auto acc = hn::Zero(du32);
+    for (int j = 0; j < kA; ++j) {
+      for (int i = -kH; i <= kH; ++i) {
+        const int t = w - 1 - x - i + lo + k0;
+        for (int word = 0; word < kWords; ++word) {
+          const auto l = hn::Set(du32, left_rows[j * 3 + word][x + i]);
+          const auto r = hn::LoadU(du32, mirror_rows[j * 3 + word] + t);
+          acc = hn::Add(acc, hn::PopulationCount(hn::Xor(l, r)));
+        }
+      }
+    }
+    // Costs are at most 9 x 9 x 80: the signed demotion to u16 is exact.
+    const auto in_band = hn::Lt(hn::Add(iota, hn::Set(di32, k0)), hn::Set(di32, count));
+    hn::StoreU(hn::DemoteTo(du16, hn::IfThenElse(in_band, hn::BitCast(di32, acc), inf)), du16, out + k0);
+  }
+}
+
+using PixelCostsFn = void (*)(const std::uint32_t* const*, const std::uint32_t* const*, int, int, int, int, int,
+                              std::uint16_t*);
+
+template <int kWords>
+PixelCostsFn PixelCostsFor(int a) {
+  switch (a) {
+    case 1: return &PixelCosts<kWords, 1>;
+    case 3: return &PixelCosts<kWords, 3>;
+    case 5: return &PixelCosts<kWords, 5>;
+    case 7: return &PixelCosts<kWords, 7>;
+    default: return &PixelCosts<kWords, 9>;
+  }
+}
+
+void SgmCosts(const CensusCodes& left, const CensusCodes& right, const Plane<std::int16_t>* coarse,
+              const SgmBandConfig& config, int shd_window, SgmVolume& v) {
+  const int w = v.width, h = v.height, words = left.words, hr = shd_window / 2;
+  MirrorCodes(right, v);
+  const PixelCostsFn costs = words == 1   ? PixelCostsFor<1>(shd_window)
+                             : words == 2 ? PixelCostsFor<2>(shd_window)
+                                          : PixelCostsFor<3>(shd_window);
+  const int cw = coarse ? coarse->width() : 1;
+#pragma omp parallel
+  {
+    std::vector<int> lo_c(cw), hi_c(cw), centre_c(cw), col_min(cw), col_max(cw);
+    int last_cy = -1;
+#pragma omp for schedule(static)
+    for (int y = 0; y < h; ++y) {
+      if (coarse != nullptr) {
+        const int cy = std::min(y / 2, coarse->height() - 1);
+        if (cy != last_cy)
+          coarse_bands(*coarse, config, cy, lo_c.data(), hi_c.data(), centre_c.data(), col_min.data(), col_max.data());
+        last_cy = cy;
+      }
+      const std::uint32_t* left_rows[9 * 3];
+      const std::uint32_t* mirror_rows[9 * 3];
+      for (int j = 0; j < shd_window; ++j) {
+        const int yy = clamp_index(y - hr + j, h);
+        for (int k = 0; k < words; ++k) {
+          left_rows[j * 3 + k] = left.plane[k].row(yy);
+          mirror_rows[j * 3 + k] = v.mirrored[k].row(yy);
+        }
+      }
+      for (int x = 0; x < w; ++x) {
+        int lo = config.dmin, hi = config.dmax, centre = (config.dmin + config.dmax) >> 1;
+        if (coarse != nullptr) {
+          const int cx = std::min(x / 2, cw - 1);
+          lo = lo_c[cx];
+          hi = hi_c[cx];
+          centre = centre_c[cx];
+        }
+        lo = std::max(lo, x - w + 1);
+        hi = std::min(hi, x);
+        if (hi - lo + 1 > config.max_band) {
+          lo = std::clamp(centre - config.max_band / 2, lo, hi - config.max_band + 1);
+          hi = lo + config.max_band - 1;
+        }
+        const int count = std::max(hi - lo + 1, 0);
+        v.lo.at(x, y) = static_cast<std::int16_t>(lo);
+        v.count.at(x, y) = static_cast<std::int16_t>(count);
+        costs(left_rows, mirror_rows, x, w, lo, count, v.stride, v.cost_at(x, y));
+      }
+    }
+  }
+}
+
+}  // namespace mctstereo::detail::cpu::HWY_NAMESPACE
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace mctstereo::detail::cpu {
+HWY_EXPORT(SgmCosts);
+void sgm_costs(const CensusCodes& left, const CensusCodes& right, const Plane<std::int16_t>* coarse,
+               const SgmBandConfig& config, int shd_window, SgmVolume& volume) {
+  HWY_DYNAMIC_DISPATCH(SgmCosts)(left, right, coarse, config, shd_window, volume);
+}
+}  // namespace mctstereo::detail::cpu
+#endif
