@@ -32,6 +32,12 @@ constexpr FieldFlag kFieldFlags[] = {
     {"speckle_size", "--speckle-size"},
     {"uniqueness_ratio", "--uniqueness"},
     {"working_scale", "--scale"},
+    {"sgm_p1", "--p1"},
+    {"sgm_p2", "--p2"},
+    {"sgm_p2_k", "--p2-k"},
+    {"prior_size", "--prior-size"},
+    {"finest_search_radius", "--finest-radius"},
+    {"sgm_max_band", "--max-band"},
 };
 
 bool is_identifier_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
@@ -138,6 +144,30 @@ ParameterFlags::ParameterFlags(CLI::App& app) {
   add(app, "--scale", v.working_scale,
       "working scale: 1, 2 or 4; match on the image reduced this many times, output at full size",
       [&v](StereoParams& p) { p.working_scale = v.working_scale; });
+  app.add_option("--aggregation", aggregation_,
+                 "cost aggregation: box (box sums of Hamming distances), sgm4 or sgm8 (semi-global paths inside "
+                 "the coarse-to-fine band, 4 or 8 paths)")
+      ->check(CLI::IsMember({"box", "sgm4", "sgm8"}))
+      ->group(kParameterGroup);
+  overrides_.push_back({"--aggregation", app.get_option("--aggregation"), [this](StereoParams& p) {
+                          p.aggregation = parse_enum(aggregation_, {Aggregation::Box, Aggregation::Sgm4, Aggregation::Sgm8});
+                        }});
+  add(app, "--p1", v.sgm_p1, "SGM penalty of a one-disparity step along a path, cost units (Hamming bits); [0, 16383]",
+      [&v](StereoParams& p) { p.sgm_p1 = v.sgm_p1; });
+  add(app, "--p2", v.sgm_p2, "SGM penalty of a larger jump, cost units; [--p1, 16383]",
+      [&v](StereoParams& p) { p.sgm_p2 = v.sgm_p2; });
+  add(app, "--p2-k", v.sgm_p2_k,
+      "adaptive P2: P2' = max(P1, P2 k / (k + |I(p) - I(q)|)); 0 = constant P2; [0, 255]",
+      [&v](StereoParams& p) { p.sgm_p2_k = v.sgm_p2_k; });
+  add(app, "--prior-size", v.prior_size,
+      "coarse neighbourhood whose priors span a pixel's search: 3 or 5 (5: SGM only)",
+      [&v](StereoParams& p) { p.prior_size = v.prior_size; });
+  add(app, "--finest-radius", v.finest_search_radius,
+      "search radius at the finest level, pixels; -1 = --search-radius; [-1, 16]",
+      [&v](StereoParams& p) { p.finest_search_radius = v.finest_search_radius; });
+  add(app, "--max-band", v.sgm_max_band,
+      "SGM: most candidates per pixel at the levels with a prior (memory W x H x this); [1, 255]",
+      [&v](StereoParams& p) { p.sgm_max_band = v.sgm_max_band; });
 }
 
 StereoParams ParameterFlags::resolve() const {
@@ -262,6 +292,13 @@ Json parameters_json(const StereoParams& p) {
   j.set("post_median_size", p.post_median_size);
   j.set("refine_all_levels", p.refine_all_levels);
   j.set("working_scale", p.working_scale);
+  j.set("aggregation", to_string(p.aggregation));
+  j.set("sgm_p1", p.sgm_p1);
+  j.set("sgm_p2", p.sgm_p2);
+  j.set("sgm_p2_k", p.sgm_p2_k);
+  j.set("prior_size", p.prior_size);
+  j.set("finest_search_radius", p.finest_search_radius);
+  j.set("sgm_max_band", p.sgm_max_band);
   return j;
 }
 
