@@ -1,0 +1,293 @@
+// Band SGM stages: known answers of the band rule and of the path recursion, and cpu::sgm_* against
+// reference::sgm_* bit for bit (bands, costs, sums, both views' winners, margins, confidence) on
+// seeded random pairs and on scenes with depth edges, at awkward sizes (odd widths, 1 and 2 rows),
+// negative minimum disparities, 256+ disparities, bands cut at max_band and at the range ends,
+// 4 and 8 paths, constant and adaptive P2, every SIMD target, 1 and 2 threads.
+#include <omp.h>
+
+#include <algorithm>
+#include <random>
+
+#include "test_util.hpp"
+
+namespace mctstereo::test {
+namespace {
+
+using detail::kInvalid;
+using detail::kSgmInf;
+using detail::SgmBandConfig;
+using detail::SgmPathConfig;
+using detail::SgmScratch;
+using detail::SgmSelectConfig;
+using detail::SgmVolume;
+
+// A volume with its own storage.
+struct OwnedVolume {
+  SgmVolume v;
+  std::unique_ptr<std::uint16_t[], detail::FreeDeleter> cost, sum;
+  OwnedVolume(int w, int h, int band, int words) {
+    const std::size_t n = SgmVolume::entries_for(w, h, band);
+    cost = detail::allocate_aligned<std::uint16_t>(n);
+    sum = detail::allocate_aligned<std::uint16_t>(n);
+    v.reset(w, h, band, words, cost.get(), sum.get());
+  }
+};
+
+SgmScratch make_scratch(std::size_t bytes, int threads) {
+  SgmScratch s;
+  s.threads = threads;
+  s.bytes_per_thread = (bytes + 63) / 64 * 64;
+  s.data = detail::allocate_aligned<std::uint8_t>(s.bytes_per_thread * threads);
+  return s;
+}
+
+TEST(SgmBand, RuleKnownAnswers) {
+  // Coarse 3 x 3 map (Q4): priors 2, 3, 4 / 5, 6, 7 / invalid, 9, 10 px.
+  Plane<std::int16_t> coarse = make_map(3, 3, {32, 48, 64, 80, 96, 112, kInvalid, 144, 160});
+  const SgmBandConfig five{0, 40, 2, 5, 64}, three{0, 40, 2, 3, 64};
+  // Pixel (2, 2) reads coarse (1, 1) = 6: the 5x5 covers every valid prior, 2..10 -> [2, 22];
+  // then the image clip d <= x = 2 leaves [2, 2].
+  EXPECT_EQ(detail::sgm_band_at(&coarse, five, 100, 2, 2).lo, 2);
+  EXPECT_EQ(detail::sgm_band_at(&coarse, five, 100, 2, 2).hi, 2);
+  // Pixel (50, 2) of a wide level: no image clip.
+  const auto wide = detail::sgm_band_at(&coarse, five, 100, 50, 2);
+  EXPECT_EQ(wide.lo, 2);
+  EXPECT_EQ(wide.hi, 22);
+  // Pixel (60, 0) reads coarse (2, 0) = 4 (columns clamp to the coarse width); its 3x3 holds
+  // 3, 4, 6, 7 -> [6 - 2, 14 + 2].
+  const auto small = detail::sgm_band_at(&coarse, three, 100, 60, 0);
+  EXPECT_EQ(small.lo, 4);
+  EXPECT_EQ(small.hi, 16);
+  // Pixel (1, 4) reads coarse (0, 2), invalid: the whole range, clipped to d <= 1.
+  const auto whole = detail::sgm_band_at(&coarse, five, 100, 1, 4);
+  EXPECT_EQ(whole.lo, 0);
+  EXPECT_EQ(whole.hi, 1);
+  // max_band 5 cuts [2, 22] around 2 x 6 = 12 (pixel (2, 2) reads coarse (1, 1)): [10, 14]; at
+  // x = 50 (coarse column clamped to 2, prior 7) around 14: [12, 16].
+  const SgmBandConfig cut{0, 40, 2, 5, 5};
+  const auto c = detail::sgm_band_at(&coarse, cut, 100, 2, 3);
+  EXPECT_EQ(c.lo, 2);  // the image clip d <= 2 comes first
+  EXPECT_EQ(c.hi, 2);
+  const auto c2 = detail::sgm_band_at(&coarse, cut, 100, 50, 2);
+  EXPECT_EQ(c2.lo, 12);
+  EXPECT_EQ(c2.hi, 16);
+  const auto c3 = detail::sgm_band_at(&coarse, cut, 100, 13, 3);  // coarse (6 -> 2, 1) = 7: [12, 16], clip d <= 13
+  EXPECT_EQ(c3.lo, 9);  // [2, 13] is 12 wide: cut around 14 -> clamp(12, 2, 9) = 9
+  EXPECT_EQ(c3.hi, 13);
+  // No prior: the level range, clipped to 0 <= x - d < W.
+  const auto none = detail::sgm_band_at(nullptr, SgmBandConfig{-5, 20, 2, 5, 64}, 30, 3, 0);
+  EXPECT_EQ(none.lo, -5);
+  EXPECT_EQ(none.hi, 3);
+  const auto right_edge = detail::sgm_band_at(nullptr, SgmBandConfig{-5, 20, 2, 5, 64}, 30, 27, 0);
+  EXPECT_EQ(right_edge.lo, -2);
+  // A range entirely outside the image: empty.
+  const auto empty = detail::sgm_band_at(nullptr, SgmBandConfig{10, 20, 2, 5, 64}, 30, 3, 0);
+  EXPECT_GT(empty.lo, empty.hi);
+}
+
+TEST(SgmAggregate, RecursionKnownAnswer) {
+  // A 3 x 1 level, whole range 0..1 clipped by the image: pixel 0 has d = 0 only, pixels 1, 2
+  // have d = 0, 1. Costs set by hand; constant P2.
+  OwnedVolume o(3, 1, 2, 1);
+  SgmVolume& v = o.v;
+  const int lo[3] = {0, 0, 0}, count[3] = {1, 2, 2};
+  const std::uint16_t costs[3][2] = {{10, kSgmInf}, {50, 5}, {7, 40}};
+  for (int x = 0; x < 3; ++x) {
+    v.lo.at(x, 0) = static_cast<std::int16_t>(lo[x]);
+    v.count.at(x, 0) = static_cast<std::int16_t>(count[x]);
+    for (int k = 0; k < v.stride; ++k) v.cost_at(x, 0)[k] = k < 2 ? costs[x][k] : kSgmInf;
+  }
+  Plane<std::uint8_t> gray(3, 1);
+  const SgmPathConfig config{4, 3, 20, 0};
+  auto scratch = make_scratch(detail::reference::sgm_scratch_bytes(3, 1, v.stride), 1);
+  detail::reference::sgm_aggregate(gray, config, scratch, v);
+  // Left to right: L0 = {10}; L1 = {50 + min(10, 10 + 20) - 10, 5 + min(inf, 10 + 3, 30) - 10} = {50, 8};
+  //   L2 = {7 + min(50, 8 + 3, 8 + 20) - 8, 40 + min(8, 50 + 3, 28) - 8} = {10, 40}.
+  // Right to left: L2 = {7, 40}; L1 = {50 + min(7, 40 + 3, 27) - 7, 5 + min(40, 7 + 3, 27) - 7} = {50, 8};
+  //   L0 = {10 + min(50, 8 + 3, 28) - 8} = {13}.
+  // Top-down and bottom-up: one row, L = C.
+  EXPECT_EQ(v.sum_at(0, 0)[0], 10 + 13 + 10 + 10);
+  EXPECT_EQ(v.sum_at(0, 0)[1], kSgmInf);
+  EXPECT_EQ(v.sum_at(1, 0)[0], 50 + 50 + 50 + 50);
+  EXPECT_EQ(v.sum_at(1, 0)[1], 8 + 8 + 5 + 5);
+  EXPECT_EQ(v.sum_at(2, 0)[0], 10 + 7 + 7 + 7);
+  EXPECT_EQ(v.sum_at(2, 0)[1], 40 + 40 + 40 + 40);
+  // Winners: pixel 0 -> 0, pixel 1 -> 1 (26 < 200), pixel 2 -> 0 (31 < 160).
+  Plane<std::int16_t> left(3, 1), right(3, 1);
+  detail::reference::sgm_select(v, SgmSelectConfig{false, 0}, scratch, left, &right, nullptr);
+  EXPECT_EQ(left.at(0, 0), 0);
+  EXPECT_EQ(left.at(1, 0), 16);
+  EXPECT_EQ(left.at(2, 0), 0);
+  // Right pixel 0: d = 0 from left 0 (43), d = 1 from left 1 (26) -> 1. Right 1: d = 0 (200),
+  // d = 1 from left 2 (160) -> 1. Right 2: d = 0 only (31).
+  EXPECT_EQ(right.at(0, 0), 16);
+  EXPECT_EQ(right.at(1, 0), 16);
+  EXPECT_EQ(right.at(2, 0), 0);
+}
+
+// Everything the stages produce, for comparison.
+struct SgmResult {
+  Plane<std::int16_t> lo, count, left, right;
+  Plane<std::uint8_t> margin, confidence;
+  std::vector<std::uint16_t> cost, sum;
+};
+
+struct SgmCase {
+  int w, h, dmin, dmax, radius, prior_size, max_band, shd, census, paths, p2k;
+  bool with_prior, subpixel;
+  int uniqueness;
+};
+
+std::string describe(const SgmCase& c) {
+  return std::to_string(c.w) + "x" + std::to_string(c.h) + " d [" + std::to_string(c.dmin) + ", " +
+         std::to_string(c.dmax) + "] r " + std::to_string(c.radius) + " prior " +
+         (c.with_prior ? std::to_string(c.prior_size) : std::string("none")) + " band " + std::to_string(c.max_band) +
+         " a " + std::to_string(c.shd) + " census " + std::to_string(c.census) + " paths " + std::to_string(c.paths) +
+         " p2k " + std::to_string(c.p2k);
+}
+
+// A pair with a depth edge: a background at d0 and a square in front at d1, plus noise.
+ShiftedPair edge_pair(int w, int h, std::uint32_t seed, int d0, int d1) {
+  ShiftedPair p = shifted_pair(w, h, seed, d0);
+  const Plane<std::uint8_t> front = random_texture(w, h, seed + 7);
+  for (int y = h / 4; y < 3 * h / 4; ++y)
+    for (int x = w / 4; x < 3 * w / 4; ++x) {
+      p.left.at(x, y) = front.at(x, y);
+      const int xr = x - d1;
+      if (xr >= 0) p.right.at(xr, y) = front.at(x, y);
+    }
+  return p;
+}
+
+template <typename Stages>
+SgmResult run_stages(const SgmCase& c, const ShiftedPair& pair, const Plane<std::int16_t>* prior, int threads,
+                     Stages stages) {
+  const int words = detail::census_words(c.census);
+  const detail::CensusCodes left = reference_census(pair.left, c.census, CensusKind::Census);
+  const detail::CensusCodes right = reference_census(pair.right, c.census, CensusKind::Census);
+  OwnedVolume o(c.w, c.h, c.max_band, words);
+  SgmVolume& v = o.v;
+  const SgmBandConfig band{c.dmin, c.dmax, c.radius, c.prior_size, c.max_band};
+  stages.costs(left, right, prior, band, c.shd, v);
+  auto scratch = make_scratch(stages.scratch_bytes(c.w, c.h, v.stride), threads);
+  stages.aggregate(pair.left, SgmPathConfig{c.paths, 20, 150, c.p2k}, scratch, v);
+  SgmResult r{Plane<std::int16_t>(c.w, c.h), Plane<std::int16_t>(c.w, c.h), Plane<std::int16_t>(c.w, c.h),
+              Plane<std::int16_t>(c.w, c.h), Plane<std::uint8_t>(c.w, c.h), Plane<std::uint8_t>(c.w, c.h), {}, {}};
+  stages.select(v, SgmSelectConfig{c.subpixel, c.uniqueness}, scratch, r.left, &r.right, &r.margin);
+  stages.confidence(r.margin, r.left, &r.right, 1, r.confidence);
+  for (int y = 0; y < c.h; ++y)
+    for (int x = 0; x < c.w; ++x) {
+      r.lo.at(x, y) = v.lo.at(x, y);
+      r.count.at(x, y) = v.count.at(x, y);
+    }
+  const std::size_t n = SgmVolume::entries_for(c.w, c.h, c.max_band);
+  r.cost.assign(v.cost, v.cost + n);
+  r.sum.assign(v.sum, v.sum + n);
+  return r;
+}
+
+struct ReferenceStages {
+  decltype(&detail::reference::sgm_costs) costs = &detail::reference::sgm_costs;
+  decltype(&detail::reference::sgm_aggregate) aggregate = &detail::reference::sgm_aggregate;
+  decltype(&detail::reference::sgm_scratch_bytes) scratch_bytes = &detail::reference::sgm_scratch_bytes;
+  decltype(&detail::reference::sgm_select) select = &detail::reference::sgm_select;
+  decltype(&detail::reference::confidence) confidence = &detail::reference::confidence;
+};
+struct CpuStages {
+  decltype(&detail::cpu::sgm_costs) costs = &detail::cpu::sgm_costs;
+  decltype(&detail::cpu::sgm_aggregate) aggregate = &detail::cpu::sgm_aggregate;
+  decltype(&detail::cpu::sgm_scratch_bytes) scratch_bytes = &detail::cpu::sgm_scratch_bytes;
+  decltype(&detail::cpu::sgm_select) select = &detail::cpu::sgm_select;
+  decltype(&detail::cpu::confidence) confidence = &detail::cpu::confidence;
+};
+
+// The index of the first differing entry, or -1.
+template <typename T>
+long first_index(const std::vector<T>& a, const std::vector<T>& b) {
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (a[i] != b[i]) return static_cast<long>(i);
+  return -1;
+}
+
+void expect_equal(const SgmResult& ref, const SgmResult& got, const std::string& what) {
+  EXPECT_EQ(first_difference(ref.lo, got.lo), "") << what << ": band start";
+  EXPECT_EQ(first_difference(ref.count, got.count), "") << what << ": band count";
+  EXPECT_EQ(first_index(ref.cost, got.cost), -1) << what << ": costs";
+  EXPECT_EQ(first_index(ref.sum, got.sum), -1) << what << ": sums";
+  EXPECT_EQ(first_difference(ref.left, got.left), "") << what << ": left map";
+  EXPECT_EQ(first_difference(ref.right, got.right), "") << what << ": right map";
+  EXPECT_EQ(first_difference(ref.margin, got.margin), "") << what << ": margin";
+  EXPECT_EQ(first_difference(ref.confidence, got.confidence), "") << what << ": confidence";
+}
+
+std::vector<SgmCase> sgm_cases() {
+  std::vector<SgmCase> cases;
+  // Coarsest levels (no prior): the whole range, wide and negative ranges, 256+ disparities.
+  cases.push_back({61, 23, 0, 15, 0, 5, 16, 3, 5, 4, 8, false, true, 0});
+  cases.push_back({67, 9, -7, 12, 0, 5, 20, 3, 5, 8, 0, false, true, 10});
+  cases.push_back({300, 3, 0, 269, 0, 5, 270, 3, 5, 4, 8, false, true, 0});
+  cases.push_back({33, 1, -3, 20, 0, 5, 24, 5, 7, 4, 8, false, false, 0});
+  cases.push_back({17, 2, 0, 9, 0, 5, 10, 1, 9, 8, 8, false, true, 5});
+  cases.push_back({1, 5, 0, 3, 0, 5, 4, 3, 5, 4, 8, false, true, 0});
+  // Finer levels: bands around a prior, cut at max_band, at the range ends.
+  cases.push_back({97, 31, 0, 63, 3, 5, 32, 3, 5, 4, 8, true, true, 10});
+  cases.push_back({64, 17, 0, 63, 2, 3, 8, 3, 5, 8, 8, true, true, 0});
+  cases.push_back({45, 13, -20, 30, 6, 5, 12, 3, 9, 4, 0, true, true, 0});
+  cases.push_back({129, 2, 0, 40, 3, 5, 16, 5, 5, 4, 8, true, false, 10});
+  return cases;
+}
+
+// A prior for a level w x h: a coarse map (ceil(w/2) x ceil(h/2)) near the true disparities with
+// noise, jumps and some invalid pixels.
+Plane<std::int16_t> make_prior(int w, int h, int dmin, int dmax, std::uint32_t seed) {
+  const int cw = (w + 1) / 2, ch = (h + 1) / 2;
+  const int lo = 16 * (dmin >> 1), hi = 16 * (-((-dmax) >> 1));
+  return random_disparity(cw, ch, seed, lo, hi, 0.1, true);
+}
+
+TEST(SgmStages, CpuEqualsReference) {
+  std::uint32_t seed = 11;
+  for (const SgmCase& c : sgm_cases()) {
+    const ShiftedPair pair = (seed % 2) ? edge_pair(c.w, c.h, seed, std::max(c.dmin, 0) + 2, std::min(c.dmax, c.w - 1))
+                                        : shifted_pair(c.w, c.h, seed, std::clamp(c.dmin + 3, c.dmin, c.dmax));
+    const Plane<std::int16_t> prior = make_prior(c.w, c.h, c.dmin, c.dmax, seed + 3);
+    ++seed;
+    const Plane<std::int16_t>* p = c.with_prior ? &prior : nullptr;
+    const SgmResult ref = run_stages(c, pair, p, 1, ReferenceStages{});
+    // The case must exercise what it claims: candidates everywhere but at the clipped border.
+    int valid = 0;
+    for (int y = 0; y < c.h; ++y)
+      for (int x = 0; x < c.w; ++x) valid += ref.left.at(x, y) != kInvalid;
+    EXPECT_GT(valid, 0) << describe(c);
+    const int saved = omp_get_max_threads();
+    for_each_simd_target([&](const std::string& target) {
+      for (int threads : {1, 2}) {
+        omp_set_num_threads(threads);
+        expect_equal(ref, run_stages(c, pair, p, threads, CpuStages{}),
+                     describe(c) + " on " + target + ", " + std::to_string(threads) + " thread(s)");
+      }
+    });
+    omp_set_num_threads(saved);
+  }
+}
+
+TEST(SgmStages, PathsRecoverASteppedScene) {
+  // A background at 4 and a square at 12: SGM on the whole range finds both inside the areas
+  // away from the edges, on both views.
+  const SgmCase c{80, 40, 0, 20, 0, 5, 21, 3, 5, 4, 8, false, false, 0};
+  const ShiftedPair pair = edge_pair(c.w, c.h, 5, 4, 12);
+  const SgmResult r = run_stages(c, pair, nullptr, 1, ReferenceStages{});
+  int right_bg = 0, right_fg = 0, total_bg = 0, total_fg = 0;
+  for (int y = 2; y < c.h - 2; ++y)
+    for (int x = 22; x < c.w - 2; ++x) {
+      const bool fg = y >= c.h / 4 + 2 && y < 3 * c.h / 4 - 2 && x >= c.w / 4 + 2 && x < 3 * c.w / 4 - 2;
+      const bool bg = y < c.h / 4 - 2 || y >= 3 * c.h / 4 + 2;
+      if (fg) ++total_fg, right_fg += r.left.at(x, y) == 16 * 12;
+      if (bg) ++total_bg, right_bg += r.left.at(x, y) == 16 * 4;
+    }
+  EXPECT_GT(right_fg, total_fg * 95 / 100);
+  EXPECT_GT(right_bg, total_bg * 95 / 100);
+}
+
+}  // namespace
+}  // namespace mctstereo::test
