@@ -324,7 +324,7 @@ struct Matcher::Impl {
   void match_sgm(int l, const Plane<std::int16_t>* prior) {
     Level& L = levels[l];
     const detail::SgmBandConfig band{L.dmin, L.dmax, L.radius, params.prior_size, L.sgm.band};
-    stages->sgm_costs(L.codes[0], L.codes[1], prior, band, L.shd_window, L.sgm);
+    stages->sgm_costs(L.codes[0], L.codes[1], prior, band, L.shd_window, sgm_scratch, L.sgm);
     const detail::SgmPathConfig paths{params.sgm_paths(), params.sgm_p1, params.sgm_p2, params.sgm_p2_k};
     stages->sgm_aggregate(level_image(l, 0), paths, sgm_scratch, L.sgm);
     const detail::SgmSelectConfig select{params.subpixel && l == 0, params.uniqueness_ratio};
@@ -568,11 +568,20 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
     if (s < scale_steps) lw = (lw + 1) / 2, lh = (lh + 1) / 2;
   }
   int max_range = 1, w0 = lw, h0 = lh;
+  std::size_t sgm_entries = 0;
+  int max_stride = 16;
   for (int l = 0; l < params.pyramid_levels; ++l) {
     if (l > 0) total += 2 * gray_bytes(lw, lh);
     total += 2 * words * Plane<std::uint32_t>::bytes_for(lw, lh, detail::kCodePad);
     total += views * 2 * map_bytes(lw, lh);
     const int ls = scale_steps + l;
+    if (params.sgm()) {
+      const int band = sgm_band_width(params, detail::level_min(params.min_disparity, ls),
+                                      detail::level_max(params.max_disparity(), ls), lw, l + 1 == params.pyramid_levels);
+      total += detail::SgmVolume::plane_bytes_for(lw, lh, band, words);
+      sgm_entries = std::max(sgm_entries, detail::SgmVolume::entries_for(lw, lh, band));
+      max_stride = std::max(max_stride, detail::SgmVolume::stride_for(band));
+    }
     max_range = std::max(max_range, detail::level_max(params.max_disparity(), ls) -
                                         detail::level_min(params.min_disparity, ls) + 1);
     lw = (lw + 1) / 2;
@@ -581,6 +590,12 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
   total += threads * detail::cpu::match_scratch_bytes(w0, max_range, std::max(params.shd_window, params.coarse_shd_window));
   if (params.speckle_size > 0) total += Plane<std::int32_t>::bytes_for(w0, h0) + static_cast<std::size_t>(w0) * h0 * 4;
+  if (params.sgm()) {
+    // The cost and sum storage every level shares, the stages' scratch, margins, confidence.
+    total += 2 * sgm_entries * sizeof(std::uint16_t);
+    total += threads * ((detail::cpu::sgm_scratch_bytes(w0, h0, max_stride) + 63) / 64 * 64);
+    total += 2 * Plane<std::uint8_t>::bytes_for(w0, h0) + Plane<float>::bytes_for(width, height);
+  }
   const int outputs = options.compute_right ? 2 : 1;
   total += outputs * map_bytes(width, height) * (scale_steps > 0 ? 2 : 1) + Plane<float>::bytes_for(width, height);
   return total;

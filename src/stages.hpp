@@ -312,11 +312,11 @@ inline int level_max(int dmax, int l) { return -((-dmax) >> l); }
                Plane<std::int16_t>& dst);                                                          \
   /* Band SGM. The band of every pixel (sgm_band_at) and its a x a SHD costs (left reference). */ \
   void sgm_costs(const CensusCodes& left, const CensusCodes& right, const Plane<std::int16_t>* coarse, \
-                 const SgmBandConfig& config, int shd_window, SgmVolume& volume);                  \
+                 const SgmBandConfig& config, int shd_window, SgmScratch& scratch, SgmVolume& volume); \
   /* The paths' values over each pixel's band, added up into volume.sum; gray: the left image.  */ \
   void sgm_aggregate(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, SgmScratch& scratch, \
                      SgmVolume& volume);                                                           \
-  /* Scratch bytes one thread of sgm_aggregate or sgm_select needs (level w x h, slot stride). */ \
+  /* Scratch bytes one thread of any sgm_ stage needs (level w x h, slot stride).              */ \
   std::size_t sgm_scratch_bytes(int width, int height, int stride);                              \
   /* Confidence in 0..255 at the pixels valid in `checked` (the map after the LR check and      */ \
   /* speckle removal): margin x agreement, agreement = max(0, 16 (t + 1) - |v - dR|) / (16(t+1)) */ \

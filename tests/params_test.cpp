@@ -7,7 +7,7 @@ namespace {
 
 TEST(Params, EveryPresetIsValidAndDistinct) {
   const auto& names = preset_names();
-  ASSERT_EQ(names.size(), 6u);
+  ASSERT_EQ(names.size(), 7u);
   for (const auto& n : names) {
     EXPECT_EQ(preset(n).validate(), "") << n;
     EXPECT_FALSE(preset_description(n).empty()) << n;
@@ -16,7 +16,57 @@ TEST(Params, EveryPresetIsValidAndDistinct) {
   EXPECT_EQ(preset("mct-full").pyramid_levels, 1);
   EXPECT_GT(preset("mr-mct-full").pyramid_levels, 1);
   EXPECT_EQ(preset("mr-mct-5x5").census_window, 5);
-  EXPECT_EQ(preset("quality").pyramid_levels, 1);
+  EXPECT_EQ(preset("sgm-full").pyramid_levels, 1);
+  EXPECT_EQ(preset("sgm-full").aggregation, Aggregation::Sgm4);
+  EXPECT_EQ(preset("balanced").aggregation, Aggregation::Sgm4);
+  EXPECT_GT(preset("quality").finest_radius(), preset("balanced").finest_radius());
+  EXPECT_EQ(preset("realtime").aggregation, Aggregation::Box);
+}
+
+// Each message names the parameter; the overflow message names the bound and what to change.
+TEST(Params, SgmParametersAreChecked) {
+  const auto expect_message = [](StereoParams p, const std::string& part) {
+    const std::string err = p.validate();
+    EXPECT_NE(err.find(part), std::string::npos) << "'" << err << "' lacks '" << part << "'";
+  };
+  StereoParams p = preset("balanced");
+  EXPECT_EQ(p.validate(), "");
+  StereoParams q = p;
+  q.sgm_p1 = 400;
+  q.sgm_p2 = 300;
+  expect_message(q, "sgm_p1 = 400 must not exceed sgm_p2 = 300");
+  q = p;
+  q.sgm_p1 = -1;
+  expect_message(q, "sgm_p1 = -1 must be in [0, 16383]");
+  q = p;
+  q.sgm_p2 = 16384;
+  expect_message(q, "sgm_p2 = 16384 must be in [0, 16383]");
+  q = p;
+  q.sgm_p2_k = 256;
+  expect_message(q, "sgm_p2_k = 256 must be in [0, 255]");
+  q = p;
+  q.sgm_max_band = 0;
+  expect_message(q, "sgm_max_band = 0 must be in [1, 255]");
+  q = p;
+  q.finest_search_radius = 17;
+  expect_message(q, "finest_search_radius = 17");
+  q = p;
+  q.prior_size = 4;
+  expect_message(q, "prior_size = 4 must be 3 or 5");
+  q = p;
+  q.aggregation = Aggregation::Box;
+  expect_message(q, "prior_size = 5 needs SGM aggregation");
+  // 8 paths x (9 x 9 x 80 + 300) = 54240 fits; 8 x (6480 + 2000) does not.
+  q = p;
+  q.aggregation = Aggregation::Sgm8;
+  q.census_window = 9;
+  q.shd_window = 9;
+  EXPECT_EQ(q.validate(), "");
+  q.sgm_p2 = 2000;
+  expect_message(q, "SGM sums could overflow 16 bits: paths (8) x (largest cost 6480");
+  expect_message(q, "exceeds 65534");
+  q.aggregation = Aggregation::Sgm4;  // 4 x 8480 fits
+  EXPECT_EQ(q.validate(), "");
 }
 
 TEST(Params, UnknownPresetNamesTheKnownOnes) {

@@ -89,6 +89,16 @@ struct PipelineCase {
 // Test logs name the case, not its bytes.
 inline void PrintTo(const PipelineCase& c, std::ostream* os) { *os << c.name << " " << c.w << "x" << c.h; }
 
+/// The box-aggregation form of parameters (the SGM presets' local twin): what the opencl backend,
+/// which does not run SGM, is compared on.
+inline StereoParams as_box(StereoParams p) {
+  if (p.sgm()) {
+    p.aggregation = Aggregation::Box;
+    p.prior_size = 3;
+  }
+  return p;
+}
+
 /// Every preset, then the cases where coarse to fine, refinement or sizes are awkward.
 inline std::vector<PipelineCase> pipeline_cases() {
   std::vector<PipelineCase> out;
@@ -146,6 +156,33 @@ inline std::vector<PipelineCase> pipeline_cases() {
   StereoParams odd = preset("mr-mct-5x5");
   odd.num_disparities = 21;
   out.push_back({"odd_131x37", odd, 131, 37});
+  StereoParams sgm8 = preset("balanced");
+  sgm8.aggregation = Aggregation::Sgm8;
+  sgm8.sgm_p2_k = 0;
+  sgm8.subpixel = true;
+  sgm8.uniqueness_ratio = 0;
+  sgm8.min_disparity = -4;
+  sgm8.num_disparities = 37;
+  out.push_back({"sgm8_constant_p2_subpixel_negative_min", sgm8, 77, 29});
+  StereoParams sgm_wide = preset("sgm-full");
+  sgm_wide.num_disparities = 260;
+  out.push_back({"sgm_full_260_disparities", sgm_wide, 300, 6});
+  StereoParams sgm_rows = preset("quality");
+  sgm_rows.num_disparities = 20;
+  out.push_back({"sgm_two_rows", sgm_rows, 45, 2});
+  return out;
+}
+
+/// pipeline_cases() in box form (as_box), named "<case>_as_box" where that changed them.
+inline std::vector<PipelineCase> box_pipeline_cases() {
+  std::vector<PipelineCase> out;
+  for (PipelineCase c : pipeline_cases()) {
+    if (c.params.sgm()) {
+      c.params = as_box(c.params);
+      c.name += "_as_box";
+    }
+    out.push_back(c);
+  }
   return out;
 }
 

@@ -196,7 +196,7 @@ TEST(Pipeline, OpenclComputeAllocatesNothingPerFrame) {
   MatcherOptions options;
   options.device = std::to_string(rt->device().index);
   for (const std::string& name : preset_names()) {
-    StereoParams p = preset(name);
+    StereoParams p = as_box(preset(name));  // the opencl backend runs box aggregation only
     p.num_disparities = 32;
     // The right map and colour input (the conversion kernel) with one preset, speckle removal
     // (on the host) and a working scale of 2 (upscaling) with others.
@@ -214,6 +214,52 @@ TEST(Pipeline, OpenclComputeAllocatesNothingPerFrame) {
 }
 #endif
 
+// The opencl backend does not run SGM aggregation: asked for, it says so; auto falls back to cpu
+// and says why.
+TEST(Pipeline, SgmOnOpenclIsRefusedAndAutoFallsBack) {
+  const StereoParams p = preset("balanced");
+  try {
+    Matcher m(64, 32, p, Backend::OpenCL);
+    FAIL() << "no exception";
+  } catch (const std::invalid_argument& e) {
+    if (have_opencl()) {
+      EXPECT_NE(std::string(e.what()).find("the opencl backend does not run SGM aggregation (aggregation = sgm4)"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+  Matcher automatic(64, 32, p, Backend::Auto);
+  EXPECT_EQ(automatic.backend(), Backend::Cpu);
+  if (have_opencl()) EXPECT_NE(automatic.notice().find("SGM aggregation runs on the cpu backend only"), std::string::npos);
+}
+
+// The confidence map: empty before a frame and for box aggregation; in [0, 1], 0 where the checks
+// invalidated a pixel, and mostly high on a clean textured pair.
+TEST(Pipeline, ConfidenceMapOfSgm) {
+  const StereoPair pair = textured_pair(120, 60, 12, 4);
+  StereoParams p = preset("balanced");
+  p.num_disparities = 24;
+  Matcher m(120, 60, p);
+  EXPECT_EQ(m.confidence().data, nullptr);
+  m.compute(pair.left_view(), pair.right_view());
+  const auto c = m.confidence();
+  ASSERT_NE(c.data, nullptr);
+  int high = 0;
+  for (int y = 0; y < 60; ++y)
+    for (int x = 0; x < 120; ++x) {
+      EXPECT_GE(c.at(x, y), 0.0f);
+      EXPECT_LE(c.at(x, y), 1.0f);
+      high += c.at(x, y) > 0.2f;
+    }
+  EXPECT_GT(high, 120 * 60 / 2);
+  // The pixels left of the smallest visible disparity have no match: the checks drop them.
+  EXPECT_EQ(c.at(0, 30), 0.0f);
+  StereoParams box = as_box(p);
+  Matcher local(120, 60, box);
+  local.compute(pair.left_view(), pair.right_view());
+  EXPECT_EQ(local.confidence().data, nullptr);
+}
+
 TEST(Pipeline, MemoryGrowsWithTheSearchWidthNotTheRange) {
   StereoParams p = preset("balanced");
   p.num_disparities = 64;
@@ -222,7 +268,9 @@ TEST(Pipeline, MemoryGrowsWithTheSearchWidthNotTheRange) {
   const std::size_t m256 = estimate_memory(p, 1280, 720);
   // A full cost volume would grow by 4x; the matcher's buffers stay nearly the same.
   EXPECT_LT(static_cast<double>(m256), 1.25 * static_cast<double>(m64));
-  EXPECT_LT(m256, std::size_t{1280} * 720 * 256 * 2 / 5);
+  // Under a quarter of one 16-bit cost volume (the band SGM presets hold costs and sums of 16
+  // candidates per pixel at the finest level).
+  EXPECT_LT(m256, std::size_t{1280} * 720 * 256 * 2 / 4);
 }
 
 }  // namespace

@@ -20,8 +20,9 @@
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
 
+#include <omp.h>
+
 #include <algorithm>
-#include <vector>
 
 #include "stages.hpp"
 
@@ -138,23 +139,25 @@ PixelCostsFn PixelCostsFor(int a) {
 }
 
 void SgmCosts(const CensusCodes& left, const CensusCodes& right, const Plane<std::int16_t>* coarse,
-              const SgmBandConfig& config, int shd_window, SgmVolume& v) {
+              const SgmBandConfig& config, int shd_window, SgmScratch& scratch, SgmVolume& v) {
   const int w = v.width, h = v.height, words = left.words, hr = shd_window / 2;
   MirrorCodes(right, v);
   const PixelCostsFn costs = words == 1   ? PixelCostsFor<1>(shd_window)
                              : words == 2 ? PixelCostsFor<2>(shd_window)
                                           : PixelCostsFor<3>(shd_window);
   const int cw = coarse ? coarse->width() : 1;
-#pragma omp parallel
+#pragma omp parallel num_threads(scratch.threads)
   {
-    std::vector<int> lo_c(cw), hi_c(cw), centre_c(cw), col_min(cw), col_max(cw);
+    // Five int rows of the coarse width per thread (sgm_scratch_bytes holds five of the level's).
+    int* lo_c = reinterpret_cast<int*>(scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread);
+    int *hi_c = lo_c + cw, *centre_c = hi_c + cw, *col_min = centre_c + cw, *col_max = col_min + cw;
     int last_cy = -1;
 #pragma omp for schedule(static)
     for (int y = 0; y < h; ++y) {
       if (coarse != nullptr) {
         const int cy = std::min(y / 2, coarse->height() - 1);
         if (cy != last_cy)
-          coarse_bands(*coarse, config, cy, lo_c.data(), hi_c.data(), centre_c.data(), col_min.data(), col_max.data());
+          coarse_bands(*coarse, config, cy, lo_c, hi_c, centre_c, col_min, col_max);
         last_cy = cy;
       }
       const std::uint32_t* left_rows[9 * 3];
@@ -196,8 +199,8 @@ HWY_AFTER_NAMESPACE();
 namespace mctstereo::detail::cpu {
 HWY_EXPORT(SgmCosts);
 void sgm_costs(const CensusCodes& left, const CensusCodes& right, const Plane<std::int16_t>* coarse,
-               const SgmBandConfig& config, int shd_window, SgmVolume& volume) {
-  HWY_DYNAMIC_DISPATCH(SgmCosts)(left, right, coarse, config, shd_window, volume);
+               const SgmBandConfig& config, int shd_window, SgmScratch& scratch, SgmVolume& volume) {
+  HWY_DYNAMIC_DISPATCH(SgmCosts)(left, right, coarse, config, shd_window, scratch, volume);
 }
 }  // namespace mctstereo::detail::cpu
 #endif

@@ -53,20 +53,20 @@ inline void select_right_row(const SgmVolume& v, const SgmSelectConfig& config, 
     const std::uint16_t* sum = v.sum_at(x, y);
     for (int k = 0; k < count; ++k) {
       const int xr = x - lo - k;  // in [0, W): the band holds only candidates inside the image
-      if (sum[k] < best_sum[xr]) {
-        best_sum[xr] = sum[k];
-        best_d[xr] = lo + k;
-      }
+      // Selects, not branches: whether a candidate wins is data, and mispredicted it costs more.
+      const bool better = sum[k] < best_sum[xr];
+      best_d[xr] = better ? lo + k : best_d[xr];
+      best_sum[xr] = better ? sum[k] : best_sum[xr];
     }
   }
   for (int x = 0; x < w; ++x) {
     const int lo = v.lo.at(x, y), count = v.count.at(x, y);
     const std::uint16_t* sum = v.sum_at(x, y);
     for (int k = 0; k < count; ++k) {
-      const int d = lo + k, xr = x - d, delta = d - best_d[xr];
-      if (delta == -1) cm1[xr] = sum[k];
-      else if (delta == 1) cp1[xr] = sum[k];
-      else if (delta != 0) second[xr] = std::min(second[xr], static_cast<int>(sum[k]));
+      const int d = lo + k, xr = x - d, delta = d - best_d[xr], value = sum[k];
+      cm1[xr] = delta == -1 ? value : cm1[xr];
+      cp1[xr] = delta == 1 ? value : cp1[xr];
+      second[xr] = delta < -1 || delta > 1 ? std::min(second[xr], value) : second[xr];
     }
   }
   for (int x = 0; x < w; ++x)

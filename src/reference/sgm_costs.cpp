@@ -5,7 +5,7 @@
 namespace mctstereo::detail::reference {
 
 void sgm_costs(const CensusCodes& left, const CensusCodes& right, const Plane<std::int16_t>* coarse,
-               const SgmBandConfig& config, int shd_window, SgmVolume& volume) {
+               const SgmBandConfig& config, int shd_window, SgmScratch& /*scratch*/, SgmVolume& volume) {
   const int w = left.plane[0].width(), h = left.plane[0].height();
   const int hr = shd_window / 2;
   for (int y = 0; y < h; ++y) {

@@ -66,7 +66,9 @@ class OpenclCli : public mctstereo::test::FolderTest {
 #define SKIP_WITHOUT_OPENCL_BUILD() \
   if (!build_has_opencl()) GTEST_SKIP() << "this build has no opencl backend"
 
-const std::string kPair = "match left.png right.png --num-disparities 16 ";
+// The box form of the default preset: the opencl backend does not run SGM aggregation (see
+// Pipeline.SgmOnOpenclIsRefusedAndAutoFallsBack).
+const std::string kPair = "match left.png right.png --num-disparities 16 --aggregation box --prior-size 3 ";
 
 TEST_F(OpenclCli, DevicesListsEveryDevice) {
   SKIP_WITHOUT_OPENCL_DEVICE();

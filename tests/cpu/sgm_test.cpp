@@ -168,8 +168,8 @@ SgmResult run_stages(const SgmCase& c, const ShiftedPair& pair, const Plane<std:
   OwnedVolume o(c.w, c.h, c.max_band, words);
   SgmVolume& v = o.v;
   const SgmBandConfig band{c.dmin, c.dmax, c.radius, c.prior_size, c.max_band};
-  stages.costs(left, right, prior, band, c.shd, v);
   auto scratch = make_scratch(stages.scratch_bytes(c.w, c.h, v.stride), threads);
+  stages.costs(left, right, prior, band, c.shd, scratch, v);
   stages.aggregate(pair.left, SgmPathConfig{c.paths, 20, 150, c.p2k}, scratch, v);
   SgmResult r{Plane<std::int16_t>(c.w, c.h), Plane<std::int16_t>(c.w, c.h), Plane<std::int16_t>(c.w, c.h),
               Plane<std::int16_t>(c.w, c.h), Plane<std::uint8_t>(c.w, c.h), Plane<std::uint8_t>(c.w, c.h), {}, {}};
