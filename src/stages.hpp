@@ -260,6 +260,10 @@ inline std::uint8_t confidence_at(const Plane<std::uint8_t>& margin, const Plane
   return static_cast<std::uint8_t>(margin.at(x, y) * num / den);
 }
 
+/// Padding (entries) on each side of the cpu right-view rows of sgm_select: a vector run of a
+/// pixel's candidates reaches up to a slot stride and a vector left of pixel 0.
+inline int right_row_pad(int stride) { return stride + 32; }
+
 /// Adaptive P2 of a path step between gray values a and b.
 inline int sgm_p2_at(const SgmPathConfig& c, int a, int b) {
   if (c.p2_k == 0) return c.p2;

@@ -30,16 +30,20 @@
 #define MCTSTEREO_CPU_SGM_AGGREGATE_ONCE
 namespace mctstereo::detail::cpu {
 
-// One padded buffer of path values: stride + 2 padding entries each side, and slack.
-inline int path_buffer_entries(int stride) { return 3 * stride + 4 + 32; }
+// One padded buffer of path values: at least stride + 2 padding entries each side (the reads
+// at k + s +- 1 with |s| <= stride + 1), rounded to 16 entries so that the values themselves sit
+// on 32-byte boundaries (the buffers are 64-byte aligned), and slack.
+inline int path_buffer_pad(int stride) { return stride + 16; }
+inline int path_buffer_entries(int stride) { return stride + 2 * path_buffer_pad(stride) + 32; }
 // Lines (columns, rows) a vertical or horizontal path walks together.
 inline constexpr int kBlock = 16;
 
-// Per thread: two path buffers per column of a block for sgm_aggregate, or five int rows of the level's width for
-// sgm_select's right view and sgm_costs' coarse bands.
+// Per thread: two path buffers per line of a block for sgm_aggregate, five padded u16 rows
+// for sgm_select's right view, or five int rows of the level's width for sgm_costs' coarse bands.
 std::size_t sgm_scratch_bytes(int width, int /*height*/, int stride) {
   return std::max(2 * kBlock * static_cast<std::size_t>(path_buffer_entries(stride)) * sizeof(std::uint16_t),
-                  5 * static_cast<std::size_t>(width) * sizeof(int));
+                  5 * static_cast<std::size_t>(width + 2 * right_row_pad(stride)) * sizeof(std::uint16_t) +
+                      5 * static_cast<std::size_t>(width) * sizeof(int));
 }
 
 // The first pixel of line i of a path with step (dx, dy).
@@ -87,19 +91,21 @@ HWY_INLINE void PathStep(const Plane<std::uint8_t>& gray, const SgmPathConfig& c
                          int y, bool first, PathState& st, SgmVolume& v) {
   const DU16 d;
   const int n = static_cast<int>(hn::Lanes(d));
-  const int stride = v.stride, pad = stride + 2;
+  const int stride = v.stride, pad = path_buffer_pad(stride);
   const std::uint16_t* cost = v.cost_at(x, y);
   std::uint16_t* sum = v.sum_at(x, y);
   std::uint16_t* l = st.cur + pad;
   const int lo = v.lo.at(x, y), g = gray.at(x, y);
   auto vmin = hn::Set(d, kSgmInf);
+  // The values go to the buffer (for the next step) and into the sums in the same pass.
+  const auto emit = [&](int k, decltype(vmin) value) {
+    hn::Store(value, d, l + k);
+    hn::StoreU(first ? value : hn::SaturatedAdd(hn::LoadU(d, sum + k), value), d, sum + k);
+    vmin = hn::Min(vmin, value);
+  };
   if (st.m_prev == kSgmInf) {
     // The path starts here (or its predecessor had no candidate): L = C.
-    for (int k = 0; k < stride; k += n) {
-      const auto c = hn::LoadU(d, cost + k);
-      hn::StoreU(c, d, l + k);
-      vmin = hn::Min(vmin, c);
-    }
+    for (int k = 0; k < stride; k += n) emit(k, hn::LoadU(d, cost + k));
   } else {
     const int s = std::clamp(lo - st.lo_prev, -(stride + 1), stride + 1);
     const std::uint16_t* q = st.prev + pad + s;
@@ -112,14 +118,8 @@ HWY_INLINE void PathStep(const Plane<std::uint8_t>& gray, const SgmPathConfig& c
       const auto below = hn::SaturatedAdd(hn::LoadU(d, q + k - 1), p1);
       const auto above = hn::SaturatedAdd(hn::LoadU(d, q + k + 1), p1);
       const auto t = hn::Min(hn::Min(same, jump), hn::Min(below, above));
-      const auto value = hn::SaturatedAdd(hn::LoadU(d, cost + k), hn::Sub(t, m));
-      hn::StoreU(value, d, l + k);
-      vmin = hn::Min(vmin, value);
+      emit(k, hn::SaturatedAdd(hn::LoadU(d, cost + k), hn::Sub(t, m)));
     }
-  }
-  for (int k = 0; k < stride; k += n) {
-    const auto value = hn::LoadU(d, l + k);
-    hn::StoreU(first ? value : hn::SaturatedAdd(hn::LoadU(d, sum + k), value), d, sum + k);
   }
   st.m_prev = hn::GetLane(hn::MinOfLanes(d, vmin));
   st.lo_prev = lo;
@@ -174,26 +174,32 @@ void SgmAggregate(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, 
   // P2' of every gray difference: one look-up per step instead of a division.
   int p2_of_diff[256];
   for (int diff = 0; diff < 256; ++diff) p2_of_diff[diff] = sgm_p2_at(config, diff, 0);
-  for (int r = 0; r < config.paths; ++r) {
-    const int dx = kSgmSteps[r][0], dy = kSgmSteps[r][1];
-    const PathLines lines{v.width, v.height, dx, dy};
-    const int column_blocks = (v.width + kBlock - 1) / kBlock, row_blocks = (v.height + kBlock - 1) / kBlock;
+  const int column_blocks = (v.width + kBlock - 1) / kBlock, row_blocks = (v.height + kBlock - 1) / kBlock;
 #pragma omp parallel num_threads(scratch.threads)
-    {
-      auto* buffers = reinterpret_cast<std::uint16_t*>(scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread);
-      if (dx == 0) {
+  {
+    auto* buffers = reinterpret_cast<std::uint16_t*>(scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread);
+    // Both horizontal paths of a block of rows, then both vertical ones of a block of columns:
+    // the second path of each pair finds the block's costs and sums still in the L2 cache (a
+    // block of 16 lines of 640 pixels x 16 candidates is 640 KiB of both), so each pair streams
+    // the volume from memory once instead of twice.
 #pragma omp for schedule(dynamic, 1)
-        for (int b = 0; b < column_blocks; ++b) PathColumns(gray, config, p2_of_diff, b * kBlock, dy, r == 0, buffers, v);
-      } else if (dy == 0) {
+    for (int b = 0; b < row_blocks; ++b) {
+      PathRows(gray, config, p2_of_diff, b * kBlock, +1, true, buffers, v);
+      PathRows(gray, config, p2_of_diff, b * kBlock, -1, false, buffers, v);
+    }
 #pragma omp for schedule(dynamic, 1)
-        for (int b = 0; b < row_blocks; ++b) PathRows(gray, config, p2_of_diff, b * kBlock, dx, r == 0, buffers, v);
-      } else {
+    for (int b = 0; b < column_blocks; ++b) {
+      PathColumns(gray, config, p2_of_diff, b * kBlock, +1, false, buffers, v);
+      PathColumns(gray, config, p2_of_diff, b * kBlock, -1, false, buffers, v);
+    }
+    // The diagonals (8 paths), line by line.
+    for (int r = 4; r < config.paths; ++r) {
+      const PathLines lines{v.width, v.height, kSgmSteps[r][0], kSgmSteps[r][1]};
 #pragma omp for schedule(dynamic, 4)
-        for (int i = 0; i < lines.count(); ++i) {
-          int x, y;
-          lines.start(i, x, y);
-          PathLine(gray, config, p2_of_diff, x, y, dx, dy, r == 0, buffers, v);
-        }
+      for (int i = 0; i < lines.count(); ++i) {
+        int x, y;
+        lines.start(i, x, y);
+        PathLine(gray, config, p2_of_diff, x, y, lines.dx, lines.dy, false, buffers, v);
       }
     }
   }

@@ -2,6 +2,7 @@
 // right view by visiting every left candidate once per row (S_R(x - d, d) = S(x, d)), OpenMP over
 // rows. Along a row the left pixels come in increasing x, so each right pixel meets its
 // candidates in increasing d and a strict "<" keeps the smaller d on ties, as the reference.
+// Right-view sums fit u16 (below kSgmInf) and disparities int16 (|d| < 2048).
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "cpu/sgm_select.cpp"
 #ifndef HWY_WANT_AVX3_DL
@@ -35,44 +36,6 @@ inline std::uint8_t margin_of(int best_sum, int second) {
   return second != INT_MAX && second > 0 ? static_cast<std::uint8_t>(255 * (second - best_sum) / second) : 0;
 }
 
-// The right view's winners of row y.
-inline void select_right_row(const SgmVolume& v, const SgmSelectConfig& config, int y, int* rows,
-                             std::int16_t* out) {
-  const int w = v.width;
-  int* best_sum = rows;
-  int* best_d = rows + w;
-  int* second = rows + 2 * w;
-  int* cm1 = rows + 3 * w;
-  int* cp1 = rows + 4 * w;
-  std::fill_n(best_sum, w, INT_MAX);
-  std::fill_n(second, w, INT_MAX);
-  std::fill_n(cm1, w, -1);
-  std::fill_n(cp1, w, -1);
-  for (int x = 0; x < w; ++x) {
-    const int lo = v.lo.at(x, y), count = v.count.at(x, y);
-    const std::uint16_t* sum = v.sum_at(x, y);
-    for (int k = 0; k < count; ++k) {
-      const int xr = x - lo - k;  // in [0, W): the band holds only candidates inside the image
-      // Selects, not branches: whether a candidate wins is data, and mispredicted it costs more.
-      const bool better = sum[k] < best_sum[xr];
-      best_d[xr] = better ? lo + k : best_d[xr];
-      best_sum[xr] = better ? sum[k] : best_sum[xr];
-    }
-  }
-  for (int x = 0; x < w; ++x) {
-    const int lo = v.lo.at(x, y), count = v.count.at(x, y);
-    const std::uint16_t* sum = v.sum_at(x, y);
-    for (int k = 0; k < count; ++k) {
-      const int d = lo + k, xr = x - d, delta = d - best_d[xr], value = sum[k];
-      cm1[xr] = delta == -1 ? value : cm1[xr];
-      cp1[xr] = delta == 1 ? value : cp1[xr];
-      second[xr] = delta < -1 || delta > 1 ? std::min(second[xr], value) : second[xr];
-    }
-  }
-  for (int x = 0; x < w; ++x)
-    out[x] = best_sum[x] == INT_MAX ? kInvalid : finish_winner(best_d[x], best_sum[x], second[x], cm1[x], cp1[x], config);
-}
-
 }  // namespace mctstereo::detail::cpu
 #endif
 
@@ -81,6 +44,64 @@ namespace mctstereo::detail::cpu::HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
 using DU16 = hn::CappedTag<std::uint16_t, 16>;
+
+// The right view's winners of row y. Left pixel x's candidates lo + k go to the right pixels
+// x - lo - k: reversed, a vector of them is a run of consecutive right pixels, whose running best
+// sum and disparity (and then the neighbours' sums and the second best) one vector read-modify-
+// write updates. Entries past a pixel's count are kSgmInf: they never win (a strict "<" against
+// an initial kSgmInf) and never lower a minimum; the runs that reach left of pixel 0 land in
+// front padding.
+void SelectRightRow(const SgmVolume& v, const SgmSelectConfig& config, int y, std::uint16_t* rows,
+                    std::int16_t* out) {
+  const DU16 d;
+  const hn::RebindToSigned<DU16> di;
+  const int n = static_cast<int>(hn::Lanes(d));
+  const int w = v.width, pad = right_row_pad(v.stride), len = w + 2 * pad;
+  std::uint16_t* best_sum = rows + pad;
+  std::int16_t* best_d = reinterpret_cast<std::int16_t*>(rows + len + pad);
+  std::uint16_t* second = rows + 2 * len + pad;
+  std::uint16_t* cm1 = rows + 3 * len + pad;
+  std::uint16_t* cp1 = rows + 4 * len + pad;
+  std::fill_n(rows, 5 * len, kSgmInf);
+  const auto inf = hn::Set(d, kSgmInf);
+  const auto lane = hn::Iota(di, 0);
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int x = 0; x < w; ++x) {
+      const int lo = v.lo.at(x, y), count = v.count.at(x, y);
+      const std::uint16_t* sum = v.sum_at(x, y);
+      for (int k0 = 0; k0 < count; k0 += n) {
+        const int xr0 = x - lo - k0 - (n - 1);  // the right pixel of lane 0 (candidate k0 + n - 1)
+        const auto s = hn::Reverse(d, hn::LoadU(d, sum + k0));
+        const auto dv = hn::Sub(hn::Set(di, static_cast<std::int16_t>(x - xr0)), lane);  // d = x - xr
+        if (pass == 0) {
+          const auto old = hn::LoadU(d, best_sum + xr0);
+          const auto better = hn::Lt(s, old);
+          hn::StoreU(hn::Min(s, old), d, best_sum + xr0);
+          hn::StoreU(hn::IfThenElse(hn::RebindMask(di, better), dv, hn::LoadU(di, best_d + xr0)), di, best_d + xr0);
+        } else {
+          const auto delta = hn::Sub(dv, hn::LoadU(di, best_d + xr0));
+          const auto present = hn::RebindMask(di, hn::Lt(s, inf));
+          const auto below = hn::And(present, hn::Eq(delta, hn::Set(di, -1)));
+          const auto above = hn::And(present, hn::Eq(delta, hn::Set(di, 1)));
+          const auto far = hn::Or(hn::Lt(delta, hn::Set(di, -1)), hn::Gt(delta, hn::Set(di, 1)));
+          hn::StoreU(hn::IfThenElse(hn::RebindMask(d, below), s, hn::LoadU(d, cm1 + xr0)), d, cm1 + xr0);
+          hn::StoreU(hn::IfThenElse(hn::RebindMask(d, above), s, hn::LoadU(d, cp1 + xr0)), d, cp1 + xr0);
+          const auto sec = hn::LoadU(d, second + xr0);
+          hn::StoreU(hn::IfThenElse(hn::RebindMask(d, far), hn::Min(sec, s), sec), d, second + xr0);
+        }
+      }
+    }
+  }
+  for (int x = 0; x < w; ++x) {
+    if (best_sum[x] == kSgmInf) {
+      out[x] = kInvalid;
+      continue;
+    }
+    const int sec = second[x] == kSgmInf ? INT_MAX : second[x];
+    const int below = cm1[x] == kSgmInf ? -1 : cm1[x], above = cp1[x] == kSgmInf ? -1 : cp1[x];
+    out[x] = finish_winner(best_d[x], best_sum[x], sec, below, above, config);
+  }
+}
 
 // The left winner of one pixel. Out-of-band entries are kSgmInf, above every in-band sum, so the
 // minimum over the whole slot is the minimum over the band.
@@ -126,14 +147,14 @@ void SgmSelect(const SgmVolume& v, const SgmSelectConfig& config, SgmScratch& sc
   const int w = v.width, h = v.height;
 #pragma omp parallel num_threads(scratch.threads)
   {
-    int* rows = reinterpret_cast<int*>(scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread);
+    auto* rows = reinterpret_cast<std::uint16_t*>(scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread);
 #pragma omp for schedule(dynamic, 4)
     for (int y = 0; y < h; ++y) {
       std::int16_t* out = left.row(y);
       std::uint8_t* m = margin ? margin->row(y) : nullptr;
       for (int x = 0; x < w; ++x)
         out[x] = SelectLeft(v.sum_at(x, y), v.lo.at(x, y), v.count.at(x, y), v.stride, config, m ? m + x : nullptr);
-      if (right) select_right_row(v, config, y, rows, right->row(y));
+      if (right) SelectRightRow(v, config, y, rows, right->row(y));
     }
   }
 }
