@@ -15,7 +15,7 @@ binary=${1:-build/release/apps/mctstereo}
 results=docs/results
 previews=build/results/previews
 data=../shared/data
-presets=realtime,balanced,quality,mct-full,mr-mct-full,mr-mct-5x5
+presets=realtime,balanced,quality,sgm-full,mct-full,mr-mct-full,mr-mct-5x5
 
 if [[ ! -x $binary ]]; then
   echo "measure_results.sh: '$binary' is not an executable: build it (cmake --preset release &&" \
