@@ -412,6 +412,8 @@ struct Score {
   std::array<std::optional<RegionMetrics>, kRegions> metrics;
   double density = 0.0;
   double ms = kNaN;  // timed at the baseline step only
+  // Methods with a confidence map: bad pixels of the most confident 100 / 90 / 75 / 50 % ('all').
+  std::optional<std::array<double, 4>> sparsification;
 
   double v2_percent(int region) const { return v2[region] ? v2[region]->percent() : kNaN; }
   int v2_numbers() const {
@@ -593,6 +595,14 @@ struct Evaluation {
   std::string kind(std::size_t method) const { return methods[method].peer ? "opencv" : "mctstereo"; }
 };
 
+// The mean sparsification curve over the scenes that have one (NaN entries when none has).
+std::array<double, 4> mean_sparsification(const std::vector<const Score*>& c) {
+  std::array<double, 4> mean{};
+  for (std::size_t i = 0; i < mean.size(); ++i)
+    mean[i] = mean_over(c, [&](const Score& s) { return s.sparsification ? (*s.sparsification)[i] : kNaN; });
+  return mean;
+}
+
 // One column of the Middlebury v3 / KITTI table.
 struct V3Column {
   const char* header;  // in the table
@@ -725,6 +735,32 @@ void print_v3_table(const Evaluation& ev) {
     std::printf("masks of %s: none and no right ground truth: all = pixels with ground truth, no nonocc or disc "
                 "('-').\n",
                 joined(ground_truth_only).c_str());
+}
+
+// The sparsification curves of the methods that have a confidence map.
+void print_sparsification_table(const Evaluation& ev) {
+  std::vector<std::size_t> with;
+  for (std::size_t m = 0; m < ev.methods.size(); ++m)
+    for (std::size_t si = 0; si < ev.scenes.size(); ++si)
+      if (ev.results[si][m][ev.baseline].sparsification) {
+        with.push_back(m);
+        break;
+      }
+  if (with.empty()) return;
+  std::printf("\nSparsification ('all' region): percent bad (> %s px) of the most confident pixels with ground truth\n"
+              "%-16s %-18s %7s %7s %7s %7s\n",
+              fixed(ev.threshold, 2).c_str(), "scene", "method", "100%", "90%", "75%", "50%");
+  const auto row = [](const std::string& scene, const std::string& method, const std::array<double, 4>& v) {
+    std::printf("%-16s %-18s %7s %7s %7s %7s\n", scene.c_str(), method.c_str(), fixed(v[0], 2).c_str(),
+                fixed(v[1], 2).c_str(), fixed(v[2], 2).c_str(), fixed(v[3], 2).c_str());
+  };
+  for (std::size_t si = 0; si < ev.scenes.size(); ++si)
+    for (std::size_t m : with)
+      if (const auto& c = ev.results[si][m][ev.baseline].sparsification) row(ev.scenes[si].scene.name, ev.methods[m].name, *c);
+  if (ev.scenes.size() > 1)
+    for (std::size_t m : with) row("average", ev.methods[m].name, mean_sparsification(ev.column(m, ev.baseline)));
+  std::printf("the confidence (Matcher::confidence, docs/PIPELINE.md) orders the pixels; box presets and OpenCV have "
+              "none.\n");
 }
 
 std::string census_label(const Method& m) {
@@ -864,6 +900,18 @@ Json report_study(const Evaluation& ev) {
   return study_json;
 }
 
+// {"fractions": [1, 0.9, 0.75, 0.5], "percent_bad": [...]}.
+Json sparsification_json(const std::array<double, 4>& curve) {
+  Json j = Json::object(), fractions = Json::array(), bad = Json::array();
+  for (std::size_t i = 0; i < curve.size(); ++i) {
+    fractions.push_back(kSparsificationFractions[i]);
+    bad.push_back(optional_number(curve[i]));
+  }
+  j.set("fractions", std::move(fractions));
+  j.set("percent_bad", std::move(bad));
+  return j;
+}
+
 Json scene_json(const Evaluation& ev, std::size_t si) {
   const SceneData& s = ev.scenes[si];
   const Score& first = ev.results[si][0][ev.baseline];
@@ -907,6 +955,7 @@ Json scene_json(const Evaluation& ev, std::size_t si) {
     for (int r = 0; r < kRegions; ++r)
       if (score.metrics[r]) metrics.set(kRegionNames[r], region_metrics_json(*score.metrics[r]));
     e.set("metrics", std::move(metrics));
+    if (score.sparsification) e.set("sparsification", sparsification_json(*score.sparsification));
     if (ev.steps.size() > 1) {
       Json per_step = Json::array();
       for (std::size_t k = 0; k < ev.steps.size(); ++k) {
@@ -937,6 +986,8 @@ Json average_json(const Evaluation& ev, std::size_t m, bool v3) {
   if (v3)
     for (const V3Column& column : kV3Columns)
       a.set(column.key, optional_number(mean_over(c, [&](const Score& s) { return v3_value(s, column); })));
+  if (std::any_of(c.begin(), c.end(), [](const Score* s) { return s->sparsification.has_value(); }))
+    a.set("sparsification", sparsification_json(mean_sparsification(c)));
   return a;
 }
 
@@ -1179,6 +1230,10 @@ void EvalCommand::run() const {
             if (frame > 0) frame_ms.push_back(matcher.timings().back().ms);
           }
           Score& score = results[si][mi][k] = score_estimate(s, matcher.disparity(), threshold_);
+          if (matcher.confidence().data != nullptr)
+            score.sparsification = sparsification_curve(matcher.disparity(), map_view<float>(s.ground_truth),
+                                                        matcher.confidence(), map_view<std::uint8_t>(s.masks[kAll]),
+                                                        255, threshold_);
           score.min_disparity = params.min_disparity;
           score.num_disparities = params.num_disparities;
           if (k == baseline_step) {
@@ -1242,6 +1297,7 @@ void EvalCommand::run() const {
 
   print_v2_table(ev);
   print_v3_table(ev);
+  print_sparsification_table(ev);
   Json study;
   if (radiometric_) study = report_study(ev);
   std::fflush(stdout);

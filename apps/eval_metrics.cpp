@@ -1,5 +1,6 @@
 #include "eval_metrics.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -175,6 +176,36 @@ Degradation summarize_degradation(const std::vector<double>& scores, std::size_t
   s.worst_degradation = s.worst - s.baseline;
   s.mean_degradation = s.mean - s.baseline;
   return s;
+}
+
+std::array<double, 4> sparsification_curve(MapView<const float> estimate, MapView<const float> ground_truth,
+                                           MapView<const float> confidence, MapView<const std::uint8_t> mask,
+                                           std::uint8_t mask_value, float threshold) {
+  require_same_size(estimate, ground_truth, "ground truth");
+  require_same_size(estimate, confidence, "confidence");
+  require_same_size(estimate, mask, "mask");
+  struct Pixel {
+    float confidence;
+    bool bad;
+  };
+  std::vector<Pixel> pixels;
+  for (int y = 0; y < estimate.height; ++y)
+    for (int x = 0; x < estimate.width; ++x) {
+      const float gt = ground_truth.at(x, y);
+      if (mask.at(x, y) != mask_value || !std::isfinite(gt)) continue;
+      const float e = estimate.at(x, y);
+      pixels.push_back({confidence.at(x, y), !std::isfinite(e) || std::fabs(e - gt) > threshold});
+    }
+  std::stable_sort(pixels.begin(), pixels.end(),
+                   [](const Pixel& a, const Pixel& b) { return a.confidence > b.confidence; });
+  std::array<double, 4> curve{};
+  for (std::size_t i = 0; i < curve.size(); ++i) {
+    const auto kept = static_cast<std::size_t>(std::ceil(kSparsificationFractions[i] * pixels.size() - 1e-9));
+    std::size_t bad = 0;
+    for (std::size_t p = 0; p < kept; ++p) bad += pixels[p].bad;
+    curve[i] = kept == 0 ? std::numeric_limits<double>::quiet_NaN() : 100.0 * bad / kept;
+  }
+  return curve;
 }
 
 }  // namespace mctstereo::app

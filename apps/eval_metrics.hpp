@@ -118,4 +118,15 @@ struct Degradation {
 /// step, mean is the baseline. std::invalid_argument when baseline_step is out of range.
 Degradation summarize_degradation(const std::vector<double>& scores, std::size_t baseline_step);
 
+/// The fractions of the sparsification curve: the most confident 100, 90, 75 and 50 % of the pixels.
+inline constexpr std::array<double, 4> kSparsificationFractions = {1.0, 0.9, 0.75, 0.5};
+
+/// The sparsification curve of a confidence map: for each fraction f of kSparsificationFractions,
+/// the percent of bad pixels (|estimate - gt| > threshold, or no estimate) among the ceil(f n) most
+/// confident of the n pixels where `mask` equals `mask_value` and the ground truth is known (ties in
+/// confidence keep row order). NaN entries when n = 0. A useful confidence gives a falling curve.
+std::array<double, 4> sparsification_curve(MapView<const float> estimate, MapView<const float> ground_truth,
+                                           MapView<const float> confidence, MapView<const std::uint8_t> mask,
+                                           std::uint8_t mask_value, float threshold);
+
 }  // namespace mctstereo::app

@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -272,6 +273,25 @@ std::vector<std::uint8_t> encode_preview(MapView<const std::int16_t> q4, std::in
   std::vector<std::uint8_t> bytes;
   if (!cv::imencode(fs::path(path).extension().string(), colour, bytes))
     throw RuntimeError("cannot encode the preview " + in_quotes(path));
+  return bytes;
+}
+
+void check_confidence_path(const std::string& path) {
+  const std::string ext = lower_extension(path);
+  if (ext != ".pfm" && ext != ".png")
+    throw UsageError("--confidence " + in_quotes(path) + ": unknown extension '" + fs::path(path).extension().string() +
+                     "': use .pfm (float, 0 to 1) or .png (8-bit, 0 to 255)");
+}
+
+std::vector<std::uint8_t> encode_confidence(MapView<const float> confidence, const std::string& path) {
+  check_confidence_path(path);
+  if (lower_extension(path) == ".pfm") return encode_pfm(confidence);
+  cv::Mat gray(confidence.height, confidence.width, CV_8UC1);
+  for (int y = 0; y < confidence.height; ++y)
+    for (int x = 0; x < confidence.width; ++x)
+      gray.at<std::uint8_t>(y, x) = static_cast<std::uint8_t>(std::lround(255.0f * confidence.at(x, y)));
+  std::vector<std::uint8_t> bytes;
+  if (!cv::imencode(".png", gray, bytes)) throw RuntimeError("cannot encode the confidence map as PNG");
   return bytes;
 }
 

@@ -58,6 +58,12 @@ std::vector<std::uint8_t> encode_pfm(MapView<const float> map);
 std::vector<std::uint8_t> encode_disparity(MapView<const std::int16_t> q4, std::int16_t invalid_q4,
                                            int min_disparity, DisparityFormat format);
 
+/// The bytes of a confidence map (values in [0, 1]): `.pfm` as float, `.png` as 8-bit gray
+/// round(255 c). UsageError naming the path for another extension.
+std::vector<std::uint8_t> encode_confidence(MapView<const float> confidence, const std::string& path);
+/// UsageError unless `path` ends in .pfm or .png (the encodings of encode_confidence).
+void check_confidence_path(const std::string& path);
+
 /// UsageError when OpenCV cannot write an image with the extension of `path`.
 void check_preview_path(const std::string& path);
 

@@ -1,6 +1,8 @@
 #include "match.hpp"
 
+#include <cctype>
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 #include <limits>
 #include <map>
@@ -27,6 +29,9 @@ constexpr const char* kMatchFooter = R"(Units and output scaling:
               q4: value = 16 x (d - min + 1), so d = value / 16 + min - 1; negative d allowed.
   --color   8-bit turbo colormap over the fixed range [min, min + N - 1], black = invalid.
   --right-output holds the right view's map: the right pixel x matches the left pixel x + d.
+  --confidence  (SGM aggregation) per pixel in [0, 1]: the winner's margin over the best sum outside
+            d-1..d+1 times the left-right agreement; 0 where the checks dropped the pixel and the
+            fill guessed it. .pfm float, .png 8-bit round(255 c).
 Depth and point clouds (--depth, --ply, --obj) need a calibration: --calib FILE, or --focal and
 --baseline (flags override the file). Z = focal x baseline / (d + doffs), X = (x - cx) Z / focal,
 Y = (y - cy) Z / focal, in the left rectified camera's frame (X right, Y down, Z forward) and in
@@ -152,6 +157,9 @@ MatchCommand::MatchCommand(CLI::App& parent)
       ->check(CLI::IsMember({"kitti", "q4", "pfm"}));
   app.add_option("--right-output", right_output_, "also write the right view's disparity map (same formats)");
   app.add_option("--color", preview_, "write a colour preview (turbo colormap, invalid black), e.g. preview.png");
+  app.add_option("--confidence", confidence_,
+                 "write the confidence map of the left disparity (SGM aggregation): .pfm (float, 0 to 1) or .png "
+                 "(8-bit, 0 to 255)");
   app.add_option("--repeat", repeat_, "match the pair N times and report the median frame time")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
@@ -183,6 +191,14 @@ std::string MatchCommand::report_rectification(const cv::Mat& left, const cv::Ma
   return line.str();
 }
 
+namespace {
+bool lower_is_png(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext == ".png";
+}
+}  // namespace
+
 void MatchCommand::run() const {
   const StereoParams requested = parameters_.resolve();
   check_parameters(requested);
@@ -194,8 +210,8 @@ void MatchCommand::run() const {
       throw UsageError("-o,--output is required: give the disparity file to write (or --check-rectification alone "
                        "to only measure the rectification)");
     if (!right_output_.empty() || !preview_.empty() || !depth_output_.empty() || !ply_output_.empty() ||
-        !obj_output_.empty())
-      throw UsageError("-o,--output is required with --right-output, --color, --depth, --ply and --obj");
+        !obj_output_.empty() || !confidence_.empty())
+      throw UsageError("-o,--output is required with --right-output, --color, --confidence, --depth, --ply and --obj");
     const cv::Mat left = read_input_image(left_, "left image");
     const cv::Mat right = read_input_image(right_, "right image");
     check_pair_size(left, right, left_, right_);
@@ -225,6 +241,14 @@ void MatchCommand::run() const {
     check_preview_path(preview_);
     check_output_path(preview_, inputs, "colour preview");
   }
+  if (!confidence_.empty()) {
+    if (!requested.sgm())
+      throw UsageError("--confidence " + in_quotes(confidence_) +
+                       ": the confidence map needs SGM aggregation (--aggregation sgm4 or sgm8, or the presets "
+                       "balanced, quality, sgm-full); this run has --aggregation box");
+    check_confidence_path(confidence_);
+    check_output_path(confidence_, inputs, "confidence map");
+  }
   // Depth and point clouds: their paths and whether the calibration they need was given.
   const bool calibrated = calibration_flags_.given();
   DepthFormat depth_format = DepthFormat::Pfm;
@@ -253,6 +277,7 @@ void MatchCommand::run() const {
   check_distinct_outputs({{"-o", output_},
                           {"--right-output", right_output_},
                           {"--color", preview_},
+                          {"--confidence", confidence_},
                           {"--depth", depth_output_},
                           {"--ply", ply_output_},
                           {"--obj", obj_output_}});
@@ -309,6 +334,10 @@ void MatchCommand::run() const {
     outputs.add(preview_, encode_preview(matcher.disparity_q4(), invalid, params.min_disparity,
                                          params.max_disparity(), preview_));
     wrote += ", " + preview_ + " (colour preview)";
+  }
+  if (!confidence_.empty()) {
+    outputs.add(confidence_, encode_confidence(matcher.confidence(), confidence_));
+    wrote += ", " + confidence_ + " (confidence, 0 to 1" + (lower_is_png(confidence_) ? " as 0 to 255)" : ")");
   }
   if (!depth_output_.empty() || !ply_output_.empty() || !obj_output_.empty())
     wrote += write_depth_outputs(matcher.disparity_q4(), invalid, left, calibration, outputs);

@@ -39,7 +39,7 @@ class MatchCommand {
   ParameterFlags parameters_;
   RunFlags run_flags_;
   CalibrationFlags calibration_flags_;
-  std::string left_, right_, output_, right_output_, preview_, format_;
+  std::string left_, right_, output_, right_output_, preview_, format_, confidence_;
   std::string depth_output_, ply_output_, obj_output_;
   double max_depth_ = 0.0;  // 0 = no cut
   int repeat_ = 1;

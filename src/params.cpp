@@ -228,7 +228,7 @@ std::string StereoParams::validate() const {
            std::to_string(c_max) + " = window " + std::to_string(window) + "^2 x " +
            std::to_string(census_window * census_window - 1) + " census bits, + sgm_p2 " + std::to_string(sgm_p2) +
            ") = " + std::to_string(bound) + " exceeds " + std::to_string(kMaxSgmSum) +
-           ": lower sgm_p2, the SHD windows or the census window, or use 4 paths");
+           ": lower sgm_p2, shd_window, coarse_shd_window or census_window, or use 4 paths");
   }
   return err.str();
 }

@@ -255,5 +255,28 @@ TEST(EvalMetrics, NewFunctionsRejectMapsOfDifferentSizes) {
                std::invalid_argument);
 }
 
+// Eight pixels with ground truth (one unknown, one outside the mask): ranked by confidence, the
+// curve drops as the bad ones sit at low confidence.
+TEST(EvalMetrics, SparsificationCurveRanksByConfidence) {
+  const Map<float> gt{5, 2, {1, 1, 1, 1, 1,  //
+                             1, 1, 1, kNaN, 1}};
+  const Map<float> est{5, 2, {1, 5, 1, 1, kNaN,  //
+                              1, 1, 3, 1, 1}};
+  // Bad: (1, 0) and (2, 1) (off by 4 and 2) and (4, 0) (no estimate); (3, 1) has no truth.
+  const Map<float> conf{5, 2, {0.9f, 0.1f, 0.8f, 0.7f, 0.0f,  //
+                               0.6f, 0.5f, 0.2f, 1.0f, 0.3f}};
+  Map<std::uint8_t> mask{5, 2, std::vector<std::uint8_t>(10, 255)};
+  mask.values[9] = 0;  // (4, 1) is outside the region
+  const auto c = sparsification_curve(est.view(), gt.view(), conf.view(), mask.view(), 255, 1.0f);
+  // 8 pixels, 3 bad: 100 % -> 3 / 8; 90 % -> ceil(7.2) = 8 -> 3 / 8; 75 % -> 6 most confident
+  // (0.9, 0.8, 0.7, 0.6, 0.5, 0.2): 1 bad; 50 % -> 4 (0.9, 0.8, 0.7, 0.6): none.
+  EXPECT_DOUBLE_EQ(c[0], 100.0 * 3 / 8);
+  EXPECT_DOUBLE_EQ(c[1], 100.0 * 3 / 8);
+  EXPECT_DOUBLE_EQ(c[2], 100.0 * 1 / 6);
+  EXPECT_DOUBLE_EQ(c[3], 0.0);
+  const Map<std::uint8_t> none{5, 2, std::vector<std::uint8_t>(10, 0)};
+  EXPECT_TRUE(std::isnan(sparsification_curve(est.view(), gt.view(), conf.view(), none.view(), 255, 1.0f)[0]));
+}
+
 }  // namespace
 }  // namespace mctstereo::app
