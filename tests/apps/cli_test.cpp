@@ -123,6 +123,54 @@ TEST_F(Cli, MatchWritesPfmRightViewAndPreview) {
   EXPECT_EQ(preview.type(), CV_8UC3);
 }
 
+// --confidence: the float map in [0, 1] and its 8-bit form agree pixel by pixel; most of Tsukuba is
+// confident, and the pixels left of the smallest visible disparity, which no right pixel sees, are
+// not.
+TEST_F(Cli, MatchWritesTheConfidenceMap) {
+  const Result r = run(kPair + "-o d.pfm --confidence c.pfm --num-disparities 16");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("c.pfm (confidence, 0 to 1)"), std::string::npos) << r.output;
+  const Result png = run(kPair + "-o d2.pfm --confidence c.png --num-disparities 16");
+  ASSERT_EQ(png.status, 0) << png.output;
+  const Pfm pfm = read_pfm(folder_ / "c.pfm");
+  const cv::Mat gray = cv::imread((folder_ / "c.png").string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(pfm.values.size(), 384u * 288u);
+  ASSERT_EQ(gray.type(), CV_8UC1);
+  int confident = 0;
+  for (int y = 0; y < 288; ++y)
+    for (int x = 0; x < 384; ++x) {
+      const float c = pfm.values[y * 384 + x];  // read_pfm puts the rows top to bottom
+      ASSERT_GE(c, 0.0f);
+      ASSERT_LE(c, 1.0f);
+      EXPECT_EQ(gray.at<std::uint8_t>(y, x), std::lround(255.0f * c)) << x << ", " << y;
+      confident += c > 0.25f;
+    }
+  EXPECT_GT(confident, 384 * 288 * 6 / 10);
+  EXPECT_EQ(gray.at<std::uint8_t>(144, 0), 0);
+}
+
+// The band SGM flags and --confidence refuse bad values naming the flag, before any work.
+TEST_F(Cli, SgmFlagsAndConfidenceRefuseBadValues) {
+  expect_failure(kPair + "-o d.pfm --p1 400 --p2 300", kUsage, "sgm_p1 = 400 must not exceed sgm_p2 = 300 (--p1, --p2)");
+  expect_failure(kPair + "-o d.pfm --p1 -1", kUsage, "sgm_p1 = -1 must be in [0, 16383] (--p1)");
+  expect_failure(kPair + "-o d.pfm --p2 20000", kUsage, "sgm_p2 = 20000 must be in [0, 16383] (--p2)");
+  expect_failure(kPair + "-o d.pfm --p2-k 300", kUsage, "sgm_p2_k = 300 must be in [0, 255]");
+  expect_failure(kPair + "-o d.pfm --max-band 0", kUsage, "sgm_max_band = 0 must be in [1, 255] (--max-band)");
+  expect_failure(kPair + "-o d.pfm --finest-radius 20", kUsage, "finest_search_radius = 20 must be in [-1, 16]");
+  expect_failure(kPair + "-o d.pfm --prior-size 7", kUsage, "prior_size = 7 must be 3 or 5 (--prior-size)");
+  expect_failure(kPair + "-o d.pfm --aggregation box", kUsage, "prior_size = 5 needs SGM aggregation");
+  expect_failure(kPair + "-o d.pfm --aggregation nonsense", kUsage, "--aggregation");
+  expect_failure(kPair + "-o d.pfm --aggregation sgm8 --census-window 9 --shd-window 9 --p2 3000", kUsage,
+                 "SGM sums could overflow 16 bits: paths (8) x (largest cost 6480");
+  expect_failure(kPair + "-o d.pfm --confidence c.txt", kUsage, "--confidence 'c.txt': unknown extension '.txt'");
+  expect_failure(kPair + "-o d.pfm --confidence left.png", kUsage, "is the input");
+  expect_failure(kPair + "-o d.pfm --confidence d.pfm", kUsage, "-o and --confidence are the same file 'd.pfm'");
+  expect_failure(kPair + "-o d.pfm --color c.png --confidence c.png", kUsage, "are the same file 'c.png'");
+  expect_failure(kPair + "-o d.pfm --confidence c.pfm --preset realtime", kUsage,
+                 "the confidence map needs SGM aggregation");
+  expect_failure(kPair + "--confidence c.pfm --check-rectification", kUsage, "-o,--output is required with");
+}
+
 TEST_F(Cli, PngFormatsHoldThePfmValuesScaled) {
   const std::string range = "--num-disparities 16 --fill none";  // leave invalid pixels to check their code
   ASSERT_EQ(run(kPair + "-o d.pfm " + range).status, 0);
