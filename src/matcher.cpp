@@ -128,6 +128,7 @@ struct Matcher::Impl {
   Plane<std::uint8_t> margin, confidence_q8;
   Plane<float> out_confidence;
   bool confidence_current = false;
+  bool has_frame = false;  // compute() has run
   Plane<std::int16_t> upscaled[2];
   Plane<std::int16_t> out_q4[2];
   Plane<float> out_float;
@@ -139,14 +140,6 @@ struct Matcher::Impl {
     const std::string err = p.validate(w, h);
     if (!err.empty()) throw std::invalid_argument(err);
     if (o.threads < 0) throw std::invalid_argument("threads = " + std::to_string(o.threads) + " must be >= 0");
-    if (p.sgm() && (b == Backend::OpenCL || b == Backend::Auto)) {
-      if (b == Backend::OpenCL)
-        throw std::invalid_argument("the opencl backend does not run SGM aggregation (aggregation = " +
-                                    std::string(to_string(p.aggregation)) +
-                                    "): use the cpu backend, or aggregation = box");
-      backend = Backend::Cpu;
-      notice = "SGM aggregation runs on the cpu backend only: running on the cpu backend";
-    }
     resolve_backend();
     stages = backend == Backend::Reference ? &kReferenceStages : &kCpuStages;
     threads = backend == Backend::Reference ? 1 : (o.threads > 0 ? o.threads : omp_get_max_threads());
@@ -155,6 +148,13 @@ struct Matcher::Impl {
       // The device holds the pyramid; the host keeps only the maps the caller reads.
       for (int v = 0; v < (o.compute_right ? 2 : 1); ++v) out_q4[v].reset(w, h);
       out_float.reset(w, h);
+      if (p.sgm()) {
+        // The confidence comes down at the working scale and is replicated here.
+        int cw = w, ch = h;
+        for (int s = 1; s < p.working_scale; s *= 2) cw = (cw + 1) / 2, ch = (ch + 1) / 2;
+        confidence_q8.reset(cw, ch);
+        out_confidence.reset(w, h);
+      }
       return;
     }
 
@@ -398,7 +398,9 @@ struct Matcher::Impl {
 #ifdef MCTSTEREO_HAVE_OPENCL
     if (device) {
       float_current = false;
+      confidence_current = false;
       device->compute(left, right, out_q4);
+      has_frame = true;
       return;
     }
 #endif
@@ -456,6 +458,7 @@ struct Matcher::Impl {
     slot_ms[kFrame] = frame.lap_ms();
     timings.clear();
     for (int s = 0; s < kSlotCount; ++s) timings.push_back({kSlotNames[s], slot_ms[s]});
+    has_frame = true;
   }
 
   std::int16_t invalid_q4() const { return static_cast<std::int16_t>((params.min_disparity - 1) * kDisparityScale); }
@@ -486,7 +489,11 @@ MapView<const float> Matcher::disparity() const {
   return {p.row(0), p.width(), p.height(), p.stride()};
 }
 MapView<const float> Matcher::confidence() const {
-  if (!impl_->params.sgm() || impl_->timings.empty()) return {};
+  if (!impl_->params.sgm() || !impl_->has_frame) return {};
+#ifdef MCTSTEREO_HAVE_OPENCL
+  // The opencl backend brings the confidence down only when it is asked for.
+  if (impl_->device && !impl_->confidence_current) impl_->device->download_confidence(impl_->confidence_q8);
+#endif
   if (!impl_->confidence_current) impl_->write_confidence();
   const auto& p = impl_->out_confidence;
   return {p.row(0), p.width(), p.height(), p.stride()};

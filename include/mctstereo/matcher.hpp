@@ -113,7 +113,8 @@ class Matcher {
   /// Per-stage times of the last compute(); the last entry is "frame", the whole call.
   /// reference and cpu: gray, pyramid, census, match, refine, output, frame (host wall ms).
   /// opencl: upload, gray, pyramid, census, match, median, lr_check, speckle, fill, upscale, output,
-  /// download, frame: the kernels' device ms from profiling events (summed per stage; 0 for a
+  /// download, frame (with SGM aggregation, "confidence" after speckle; the SGM stages' kernels
+  /// count as match): the kernels' device ms from profiling events (summed per stage; 0 for a
   /// stage that did not run), except upload, download and speckle (on the host, its transfers
   /// included) and frame (the whole call), which are host wall ms.
   const std::vector<StageTime>& timings() const;

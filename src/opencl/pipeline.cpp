@@ -106,13 +106,15 @@ struct Pipeline::Level {
   int scale_log2 = 0;  // this level is 2^scale_log2 times smaller than the input
   int dmin = 0, dmax = 0;
   int shd_window = 5;
+  int radius = 0;  // search radius around the coarser level's priors
   bool refine = true;
   int speckle = 0;  // speckle removal's region size at this level; on only when > 1
   DevicePlane<std::uint8_t> image[2];
   DeviceCodes codes[2];
   DevicePlane<std::int16_t> disparity[2], scratch[2];
   Plane<std::int16_t> host;     // the map on its way through speckle removal
-  std::optional<Match> match;   // this level's SHD window, sub-pixel at the finest only
+  std::optional<Match> match;   // box aggregation: this level's SHD window, sub-pixel at the finest only
+  DeviceSgmVolume sgm;          // band SGM: its band, costs and sums (storage shared by the levels)
 };
 
 // The other stages the parameters use, one object per kernel; those they do not use stay empty.
@@ -126,6 +128,11 @@ struct Pipeline::Stages {
   std::optional<Upscale> upscale;
   std::optional<ToOutput> output;  // the right view's, without the float map
   ToOutput output_with_float;
+  // Band SGM, instead of the levels' box matching.
+  std::optional<SgmCosts> sgm_costs;
+  std::optional<SgmAggregate> sgm_aggregate;
+  std::optional<SgmSelect> sgm_select;
+  std::optional<Confidence> confidence;
 
   // check_right: some level checks the right view's map too.
   Stages(Runtime& rt, const StereoParams& p, bool check_right, bool compute_right)
@@ -141,6 +148,12 @@ struct Pipeline::Stages {
     if (p.lr_check && check_right) lr_check[1].emplace(rt, +1);
     if (p.working_scale > 1) upscale.emplace(rt, p.working_scale);
     if (compute_right) output.emplace(rt, false);
+    if (p.sgm()) {
+      sgm_costs.emplace(rt, pick_popcount(rt.device()));
+      sgm_aggregate.emplace(rt);
+      sgm_select.emplace(rt);
+      confidence.emplace(rt);
+    }
   }
   ToGray& to_gray(PixelFormat format) { return format == PixelFormat::Rgb8 ? gray_rgb : gray_bgr; }
 };
@@ -163,7 +176,7 @@ Pipeline::Pipeline(const DeviceInfo& device, int width, int height, const Stereo
     // others when they are refined.
     const bool check_right = options.compute_right || (params.refine_all_levels && params.pyramid_levels > 1);
     stages_ = std::make_unique<Stages>(*rt_, params, check_right, options.compute_right);
-    for (int l = 0; l < params.pyramid_levels; ++l) {
+    for (int l = 0; l < params.pyramid_levels && !params.sgm(); ++l) {
       const MatchConfig config{-1, levels_[l].shd_window, params.subpixel && l == 0, params.uniqueness_ratio};
       levels_[l].match.emplace(*rt_, census_words(params.census_window), config, popcount_, rt_->device().gpu);
     }
@@ -195,7 +208,11 @@ Pipeline::Pipeline(const DeviceInfo& device, int width, int height, const Stereo
     rethrow_cl(rt_->device(), e);
   }
   timings_.reserve(kTimingLabels.size() + 4);
-  for (const char* label : kTimingLabels) timings_.push_back({label, 0.0});
+  for (const char* label : kTimingLabels) {
+    timings_.push_back({label, 0.0});
+    // Band SGM's confidence comes after speckle removal, as in the frame.
+    if (params.sgm() && std::string_view(label) == "speckle") timings_.push_back({"confidence", 0.0});
+  }
 }
 
 Pipeline::~Pipeline() = default;
@@ -234,6 +251,7 @@ void Pipeline::allocate() {
     L.dmin = level_min(p.min_disparity, L.scale_log2);
     L.dmax = level_max(p.max_disparity(), L.scale_log2);
     L.shd_window = l == 0 ? p.shd_window : p.coarse_shd_window;
+    L.radius = l == 0 ? p.finest_radius() : p.search_radius;
     L.refine = l == 0 || p.refine_all_levels;
     L.speckle = p.speckle_size >> (2 * L.scale_log2);
     for (int v = 0; v < 2; ++v) {
@@ -247,9 +265,11 @@ void Pipeline::allocate() {
       plane(L.scratch[v], lw, lh);
     }
     if (L.refine && L.speckle > 1) L.host.reset(lw, lh);
+    if (p.sgm()) allocate_sgm_planes(L, l + 1 == p.pyramid_levels);
     lw = (lw + 1) / 2;
     lh = (lh + 1) / 2;
   }
+  if (p.sgm()) allocate_sgm_storage();
   if (p.speckle_size > 0) {
     speckle_scratch_.label.reset(levels_[0].width, levels_[0].height);
     speckle_scratch_.stack =
@@ -260,6 +280,39 @@ void Pipeline::allocate() {
     plane(out_q4_[v], width_, height_);
   }
   plane(out_float_, width_, height_);
+}
+
+// The band width of a level for SGM (as the Matcher's): the whole range at the coarsest level,
+// else at most max_band; never more than the candidates a pixel can have (the level's width).
+void Pipeline::allocate_sgm_planes(Level& L, bool coarsest) {
+  const int range = std::min(L.dmax - L.dmin + 1, L.width);
+  L.sgm.width = L.width;
+  L.sgm.height = L.height;
+  L.sgm.band = coarsest ? range : std::min(range, params_.sgm_max_band);
+  L.sgm.stride = SgmVolume::stride_for(L.sgm.band);
+  plane(L.sgm.lo, L.width, L.height);
+  plane(L.sgm.count, L.width, L.height);
+}
+
+// The cost, sum and line scratch buffers every level's volume uses, sized for the largest, and
+// the finest level's margins and confidence.
+void Pipeline::allocate_sgm_storage() {
+  std::size_t entries = 1, scratch = 1;
+  for (const Level& L : levels_) {
+    entries = std::max(entries, SgmVolume::entries_for(L.width, L.height, L.sgm.band));
+    scratch = std::max(scratch, DeviceSgmVolume::scratch_entries_for(L.width, L.height, L.sgm.band));
+  }
+  const cl::Buffer cost = rt_->buffer(entries * sizeof(std::uint16_t));
+  const cl::Buffer sum = rt_->buffer(entries * sizeof(std::uint16_t));
+  const cl::Buffer lines = rt_->buffer(scratch * sizeof(std::uint16_t));
+  device_bytes_ += (2 * entries + scratch) * sizeof(std::uint16_t);
+  for (Level& L : levels_) {
+    L.sgm.cost = cost;
+    L.sgm.sum = sum;
+    L.sgm.scratch = lines;
+  }
+  plane(margin_, levels_[0].width, levels_[0].height);
+  plane(confidence_, levels_[0].width, levels_[0].height);
 }
 
 const DevicePlane<std::uint8_t>& Pipeline::level_image(int l, int v) const {
@@ -301,14 +354,31 @@ void Pipeline::run_levels() {
     for (int v = 0; v < 2; ++v) stages_->census.run(level_image(l, v), L.codes[v]);
 
     const bool coarsest = l + 1 == static_cast<int>(levels_.size());
+    if (params_.sgm()) {
+      match_sgm(l, coarsest ? nullptr : &levels_[l + 1].disparity[0]);
+      if (L.refine) refine(L, l == 0);
+      continue;
+    }
     for (int v = 0; v < views; ++v) {
       // Each view searches around the coarser level's map of the same view.
       const DevicePlane<std::int16_t>* prior = coarsest ? nullptr : &levels_[l + 1].disparity[v];
-      L.match->run(L.codes[v], L.codes[1 - v], prior, L.dmin, L.dmax, params_.search_radius, v == 0 ? -1 : +1,
-                   L.disparity[v]);
+      L.match->run(L.codes[v], L.codes[1 - v], prior, L.dmin, L.dmax, L.radius, v == 0 ? -1 : +1, L.disparity[v]);
     }
     if (L.refine) refine(L, l == 0);
   }
+}
+
+// Band SGM at level l (Matcher::Impl::match_sgm): band costs around the coarser left map, the
+// paths over the left gray image, the winners of both views from the same sums.
+void Pipeline::match_sgm(int l, const DevicePlane<std::int16_t>* prior) {
+  Level& L = levels_[l];
+  const SgmBandConfig band{L.dmin, L.dmax, L.radius, params_.prior_size, L.sgm.band};
+  stages_->sgm_costs->run(L.codes[0], L.codes[1], prior, band, L.shd_window, L.sgm);
+  const SgmPathConfig paths{params_.sgm_paths(), params_.sgm_p1, params_.sgm_p2, params_.sgm_p2_k};
+  stages_->sgm_aggregate->run(level_image(l, 0), paths, L.sgm);
+  const SgmSelectConfig select{params_.subpixel && l == 0, params_.uniqueness_ratio};
+  stages_->sgm_select->run(L.sgm, select, L.dmin, L.dmax, L.disparity[0], need_right_ ? &L.disparity[1] : nullptr,
+                           l == 0 ? &margin_ : nullptr);
 }
 
 // Matcher::Impl::refine on the device. At the finest level the right map only serves the left
@@ -330,6 +400,10 @@ void Pipeline::refine(Level& L, bool finest) {
   }
   if (L.speckle > 1)
     for (int v = 0; v < kept; ++v) remove_speckles_on_host(L, v, L.speckle);
+  // The confidence of the final map: what survived the checks, before the fill guesses.
+  if (finest && params_.sgm())
+    stages_->confidence->run(margin_, L.disparity[0], need_right_ ? &L.disparity[1] : nullptr, params_.lr_threshold,
+                             confidence_);
   for (int v = 0; v < kept; ++v) stages_->fill.run(L.disparity[v]);
   if (params_.post_median_size > 0) {
     for (int v = 0; v < kept; ++v) {
@@ -407,6 +481,15 @@ void Pipeline::download_float(Plane<float>& disparity) {
   std::lock_guard<std::mutex> lock(*frame_mutex_);
   try {
     download(*rt_, out_float_, disparity);
+  } catch (const cl::Error& e) {
+    rethrow_cl(rt_->device(), e);
+  }
+}
+
+void Pipeline::download_confidence(Plane<std::uint8_t>& confidence) {
+  std::lock_guard<std::mutex> lock(*frame_mutex_);
+  try {
+    download(*rt_, confidence_, confidence);
   } catch (const cl::Error& e) {
     rethrow_cl(rt_->device(), e);
   }

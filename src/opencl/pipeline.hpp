@@ -36,6 +36,9 @@ class Pipeline {
   /// The left map of the last frame in pixels, NaN where invalid (device-made by to_output,
   /// downloaded only when asked for).
   void download_float(Plane<float>& disparity);
+  /// Band SGM: the confidence (0..255) of the last frame at the working scale, the size of the
+  /// finest level (downloaded only when asked for).
+  void download_confidence(Plane<std::uint8_t>& confidence);
 
   /// The stage times of the last frame, as Matcher::timings() describes them for opencl (zero
   /// before the first frame).
@@ -51,7 +54,10 @@ class Pipeline {
   void allocate();
   const DevicePlane<std::uint8_t>& level_image(int l, int v) const;
   void upload_input(const ImageView& image, int view);
+  void allocate_sgm_planes(Level& L, bool coarsest);
+  void allocate_sgm_storage();
   void run_levels();
+  void match_sgm(int l, const DevicePlane<std::int16_t>* prior);
   void refine(Level& L, bool finest);
   void remove_speckles_on_host(Level& L, int view, int speckle);
   void write_outputs();
@@ -74,6 +80,7 @@ class Pipeline {
   std::unique_ptr<Stages> stages_;                       // made once; matching's are the levels' own
   DevicePlane<std::int16_t> upscaled_[2], out_q4_[2];
   DevicePlane<float> out_float_;
+  DevicePlane<std::uint8_t> margin_, confidence_;  // band SGM, finest level
   SpeckleScratch speckle_scratch_;  // speckle removal runs on the host
   double speckle_ms_ = 0;
   std::vector<StageTime> timings_;  // filled in place: a frame only changes the times

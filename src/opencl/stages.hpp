@@ -10,6 +10,7 @@
 // free functions after the classes make a stage for one call (tests, one-off use).
 #pragma once
 
+#include <memory>
 #include <string>
 #include <string_view>
 
@@ -174,6 +175,62 @@ class ToOutput : StageKernel {
 
  private:
   bool with_float_;
+};
+
+/// A level's band SGM volume on the device, as SgmVolume: lo and count planes of the level, and
+/// the cost and sum entries ((y W + x) stride per pixel) in buffers the caller owns and shares
+/// between the levels (sized for the largest), with the aggregation's line scratch.
+struct DeviceSgmVolume {
+  int width = 0, height = 0;
+  int band = 0;    ///< most candidates of a pixel at this level
+  int stride = 0;  ///< entries per pixel slot: SgmVolume::stride_for(band)
+  DevicePlane<std::int16_t> lo, count;
+  cl::Buffer cost, sum;
+  cl::Buffer scratch;  ///< sgm_aggregate: 2 x stride entries per path line
+  /// Entries of the line scratch for a level.
+  static std::size_t scratch_entries_for(int w, int h, int band_width) {
+    return static_cast<std::size_t>(w + h) * 2 * SgmVolume::stride_for(band_width);
+  }
+};
+
+/// reference::sgm_costs: each pixel's band around the coarser map and its SHD costs.
+class SgmCosts : StageKernel {
+ public:
+  SgmCosts(Runtime& rt, Popcount popcount);
+  /// prior == nullptr: the whole range (the coarsest level).
+  void run(const DeviceCodes& left, const DeviceCodes& right, const DevicePlane<std::int16_t>* prior,
+           const SgmBandConfig& config, int shd_window, DeviceSgmVolume& volume);
+};
+
+/// reference::sgm_aggregate: one enqueue per path direction, a work-item per path line.
+class SgmAggregate : StageKernel {
+ public:
+  explicit SgmAggregate(Runtime& rt);
+  void run(const DevicePlane<std::uint8_t>& gray, const SgmPathConfig& config, DeviceSgmVolume& volume);
+};
+
+/// reference::sgm_select: the left map (margins when margin != nullptr), the right map from the
+/// same sums when right != nullptr. dmin, dmax: the level range (every band lies inside it).
+class SgmSelect {
+ public:
+  explicit SgmSelect(Runtime& rt);
+  ~SgmSelect();
+  void run(const DeviceSgmVolume& volume, const SgmSelectConfig& config, int dmin, int dmax,
+           DevicePlane<std::int16_t>& left, DevicePlane<std::int16_t>* right, DevicePlane<std::uint8_t>* margin);
+
+ private:
+  class Left;
+  class Right;
+  std::unique_ptr<Left> left_;
+  std::unique_ptr<Right> right_;
+};
+
+/// reference::confidence.
+class Confidence : StageKernel {
+ public:
+  explicit Confidence(Runtime& rt);
+  void run(const DevicePlane<std::uint8_t>& margin, const DevicePlane<std::int16_t>& checked,
+           const DevicePlane<std::int16_t>* right, int threshold, DevicePlane<std::uint8_t>& dst);
 };
 
 // One call each: the stage made for it, then run.

@@ -1,0 +1,148 @@
+// The opencl band SGM stages against the reference stages, bit for bit: the band planes, every
+// entry of the cost and sum volumes (entries past a pixel's count included), the left and right
+// maps and the margins, then the confidence; with and without a coarse prior (3x3 and 5x5, cut
+// bands), every SHD window, 1 to 3 census words, 4 and 8 paths, adaptive and constant P2,
+// sub-pixel and uniqueness, both popcount forms, 1-row and odd sizes.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "opencl/stages.hpp"
+#include "opencl_test_util.hpp"
+#include "test_util.hpp"
+
+namespace mctstereo::test {
+namespace {
+
+using detail::opencl::DeviceCodes;
+using detail::opencl::DevicePlane;
+using detail::opencl::DeviceSgmVolume;
+using detail::opencl::Popcount;
+using detail::opencl::Runtime;
+
+struct StageCase {
+  int w, h, dmin, dmax;
+  bool prior;
+  int prior_size, max_band, radius, shd_window, census_window, paths, p2_k;
+  bool subpixel;
+  int uniqueness;
+  Popcount popcount;
+};
+
+std::string name_of(const StageCase& c) {
+  return std::to_string(c.w) + "x" + std::to_string(c.h) + " d " + std::to_string(c.dmin) + ".." +
+         std::to_string(c.dmax) + (c.prior ? " prior " + std::to_string(c.prior_size) : " no prior") + " band " +
+         std::to_string(c.max_band) + " a " + std::to_string(c.shd_window) + " ct " + std::to_string(c.census_window) +
+         " paths " + std::to_string(c.paths) + " k " + std::to_string(c.p2_k) + (c.subpixel ? " subpixel" : "") +
+         " unique " + std::to_string(c.uniqueness) + (c.popcount == Popcount::Swar ? " swar" : " builtin");
+}
+
+DeviceCodes to_device_codes(Runtime& rt, const detail::CensusCodes& host) {
+  DeviceCodes d;
+  d.words = host.words;
+  for (int k = 0; k < host.words; ++k) d.plane[k] = to_device(rt, host.plane[k]);
+  return d;
+}
+
+template <typename T>
+std::vector<T> read_buffer(Runtime& rt, const cl::Buffer& buffer, std::size_t n) {
+  std::vector<T> out(n);
+  rt.queue().enqueueReadBuffer(buffer, CL_TRUE, 0, n * sizeof(T), out.data());
+  return out;
+}
+
+// The index of the first difference of two arrays, or -1.
+long first_mismatch(const std::uint16_t* a, const std::vector<std::uint16_t>& b) {
+  for (std::size_t i = 0; i < b.size(); ++i)
+    if (a[i] != b[i]) return static_cast<long>(i);
+  return -1;
+}
+
+void expect_stages_equal(Runtime& rt, const StageCase& c) {
+  SCOPED_TRACE(name_of(c));
+  const ShiftedPair pair = shifted_pair(c.w, c.h, 7 + c.w, std::max(0, (c.dmin + c.dmax) / 2));
+  const detail::CensusCodes left = reference_census(pair.left, c.census_window, CensusKind::Census);
+  const detail::CensusCodes right = reference_census(pair.right, c.census_window, CensusKind::Census);
+  const int cw = (c.w + 1) / 2, ch = (c.h + 1) / 2;
+  const Plane<std::int16_t> coarse =
+      random_disparity(cw, ch, 3, 16 * (c.dmin / 2), 16 * (c.dmax / 2 + 1), 0.15, true);
+  const detail::SgmBandConfig band{c.dmin, c.dmax, c.radius, c.prior_size, c.max_band};
+  const detail::SgmPathConfig paths{c.paths, 20, 150, c.p2_k};
+  const detail::SgmSelectConfig select{c.subpixel, c.uniqueness};
+
+  // The reference stages on host storage.
+  const std::size_t entries = detail::SgmVolume::entries_for(c.w, c.h, c.max_band);
+  std::vector<std::uint16_t> cost(entries), sum(entries);
+  detail::SgmVolume host;
+  host.reset(c.w, c.h, c.max_band, left.words, cost.data(), sum.data());
+  detail::SgmScratch scratch;
+  scratch.bytes_per_thread = detail::reference::sgm_scratch_bytes(c.w, c.h, host.stride);
+  scratch.data = detail::allocate_aligned<std::uint8_t>(scratch.bytes_per_thread);
+  Plane<std::int16_t> want_left(c.w, c.h), want_right(c.w, c.h);
+  Plane<std::uint8_t> want_margin(c.w, c.h);
+  detail::reference::sgm_costs(left, right, c.prior ? &coarse : nullptr, band, c.shd_window, host);
+  const std::vector<std::uint16_t> want_cost = cost;
+  detail::reference::sgm_aggregate(pair.left, paths, scratch, host);
+  detail::reference::sgm_select(host, select, scratch, want_left, &want_right, &want_margin);
+
+  // The same on the device.
+  DeviceSgmVolume dev;
+  dev.width = c.w, dev.height = c.h, dev.band = c.max_band, dev.stride = host.stride;
+  dev.lo = marked_plane<std::int16_t>(rt, c.w, c.h);
+  dev.count = marked_plane<std::int16_t>(rt, c.w, c.h);
+  dev.cost = rt.buffer(entries * 2);
+  dev.sum = rt.buffer(entries * 2);
+  dev.scratch = rt.buffer(DeviceSgmVolume::scratch_entries_for(c.w, c.h, c.max_band) * 2);
+  const DeviceCodes dl = to_device_codes(rt, left), dr = to_device_codes(rt, right);
+  const DevicePlane<std::int16_t> dcoarse = to_device(rt, coarse);
+  const DevicePlane<std::uint8_t> gray = to_device(rt, pair.left);
+  DevicePlane<std::int16_t> got_left = marked_plane<std::int16_t>(rt, c.w, c.h);
+  DevicePlane<std::int16_t> got_right = marked_plane<std::int16_t>(rt, c.w, c.h);
+  DevicePlane<std::uint8_t> got_margin = marked_plane<std::uint8_t>(rt, c.w, c.h);
+  detail::opencl::SgmCosts(rt, c.popcount).run(dl, dr, c.prior ? &dcoarse : nullptr, band, c.shd_window, dev);
+  const std::vector<std::uint16_t> got_cost = read_buffer<std::uint16_t>(rt, dev.cost, entries);
+  detail::opencl::SgmAggregate(rt).run(gray, paths, dev);
+  detail::opencl::SgmSelect(rt).run(dev, select, c.dmin, c.dmax, got_left, &got_right, &got_margin);
+
+  EXPECT_EQ(first_difference(to_host(rt, dev.lo), host.lo), "") << "lo";
+  EXPECT_EQ(first_difference(to_host(rt, dev.count), host.count), "") << "count";
+  EXPECT_EQ(first_mismatch(want_cost.data(), got_cost), -1) << "cost entry";
+  EXPECT_EQ(first_mismatch(sum.data(), read_buffer<std::uint16_t>(rt, dev.sum, entries)), -1) << "sum entry";
+  EXPECT_EQ(first_difference(to_host(rt, got_left), want_left), "") << "left map";
+  EXPECT_EQ(first_difference(to_host(rt, got_right), want_right), "") << "right map";
+  EXPECT_EQ(first_difference(to_host(rt, got_margin), want_margin), "") << "margin";
+  for (const auto* p : {&got_left, &got_right}) EXPECT_EQ(padding_difference(rt, *p), "");
+  EXPECT_EQ(padding_difference(rt, got_margin), "");
+
+  // The confidence of the left map against the right one, and without a right map.
+  for (bool with_right : {true, false}) {
+    Plane<std::uint8_t> want(c.w, c.h);
+    detail::reference::confidence(want_margin, want_left, with_right ? &want_right : nullptr, 1, want);
+    DevicePlane<std::uint8_t> got = marked_plane<std::uint8_t>(rt, c.w, c.h);
+    detail::opencl::Confidence(rt).run(got_margin, got_left, with_right ? &got_right : nullptr, 1, got);
+    EXPECT_EQ(first_difference(to_host(rt, got), want), "") << "confidence, right map " << with_right;
+    EXPECT_EQ(padding_difference(rt, got), "");
+  }
+}
+
+TEST(OpenclSgmStages, EqualReference) {
+  MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
+  const Popcount swar = Popcount::Swar, builtin = Popcount::Builtin;
+  const std::vector<StageCase> cases = {
+      // w, h, dmin, dmax, prior, prior_size, max_band, radius, a, census, paths, k, subpixel, unique, popcount
+      {53, 27, 0, 15, false, 5, 16, 3, 3, 5, 4, 8, false, 10, swar},
+      {53, 27, 0, 31, true, 5, 9, 3, 3, 5, 8, 8, true, 0, swar},
+      {40, 19, -6, 12, true, 3, 14, 2, 5, 7, 4, 0, true, 15, builtin},
+      {33, 1, 0, 9, true, 5, 8, 1, 1, 9, 8, 8, false, 10, swar},
+      {17, 2, -3, 5, false, 5, 9, 3, 7, 3, 8, 4, true, 5, builtin},
+      {70, 9, 0, 63, false, 5, 64, 3, 9, 5, 4, 8, true, 10, swar},
+      {1, 12, 0, 0, true, 5, 1, 3, 3, 5, 8, 8, true, 10, swar},
+  };
+  for (const StageCase& c : cases) {
+    if (c.popcount == builtin && !rt->device().has_popcount) continue;
+    expect_stages_equal(*rt, c);
+  }
+}
+
+}  // namespace
+}  // namespace mctstereo::test
