@@ -89,16 +89,6 @@ struct PipelineCase {
 // Test logs name the case, not its bytes.
 inline void PrintTo(const PipelineCase& c, std::ostream* os) { *os << c.name << " " << c.w << "x" << c.h; }
 
-/// The box-aggregation form of parameters (the SGM presets' local twin): what the opencl backend,
-/// which does not run SGM, is compared on.
-inline StereoParams as_box(StereoParams p) {
-  if (p.sgm()) {
-    p.aggregation = Aggregation::Box;
-    p.prior_size = 3;
-  }
-  return p;
-}
-
 /// Every preset, then the cases where coarse to fine, refinement or sizes are awkward.
 inline std::vector<PipelineCase> pipeline_cases() {
   std::vector<PipelineCase> out;
@@ -170,19 +160,6 @@ inline std::vector<PipelineCase> pipeline_cases() {
   StereoParams sgm_rows = preset("quality");
   sgm_rows.num_disparities = 20;
   out.push_back({"sgm_two_rows", sgm_rows, 45, 2});
-  return out;
-}
-
-/// pipeline_cases() in box form (as_box), named "<case>_as_box" where that changed them.
-inline std::vector<PipelineCase> box_pipeline_cases() {
-  std::vector<PipelineCase> out;
-  for (PipelineCase c : pipeline_cases()) {
-    if (c.params.sgm()) {
-      c.params = as_box(c.params);
-      c.name += "_as_box";
-    }
-    out.push_back(c);
-  }
   return out;
 }
 

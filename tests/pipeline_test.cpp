@@ -196,7 +196,7 @@ TEST(Pipeline, OpenclComputeAllocatesNothingPerFrame) {
   MatcherOptions options;
   options.device = std::to_string(rt->device().index);
   for (const std::string& name : preset_names()) {
-    StereoParams p = as_box(preset(name));  // the opencl backend runs box aggregation only
+    StereoParams p = preset(name);
     p.num_disparities = 32;
     // The right map and colour input (the conversion kernel) with one preset, speckle removal
     // (on the host) and a working scale of 2 (upscaling) with others.
@@ -213,25 +213,6 @@ TEST(Pipeline, OpenclComputeAllocatesNothingPerFrame) {
   }
 }
 #endif
-
-// The opencl backend does not run SGM aggregation: asked for, it says so; auto falls back to cpu
-// and says why.
-TEST(Pipeline, SgmOnOpenclIsRefusedAndAutoFallsBack) {
-  const StereoParams p = preset("balanced");
-  try {
-    Matcher m(64, 32, p, Backend::OpenCL);
-    FAIL() << "no exception";
-  } catch (const std::invalid_argument& e) {
-    if (have_opencl()) {
-      EXPECT_NE(std::string(e.what()).find("the opencl backend does not run SGM aggregation (aggregation = sgm4)"),
-                std::string::npos)
-          << e.what();
-    }
-  }
-  Matcher automatic(64, 32, p, Backend::Auto);
-  EXPECT_EQ(automatic.backend(), Backend::Cpu);
-  if (have_opencl()) EXPECT_NE(automatic.notice().find("SGM aggregation runs on the cpu backend only"), std::string::npos);
-}
 
 // The confidence map: empty before a frame and for box aggregation; in [0, 1], 0 where the checks
 // invalidated a pixel, and mostly high on a clean textured pair.
@@ -254,7 +235,9 @@ TEST(Pipeline, ConfidenceMapOfSgm) {
   EXPECT_GT(high, 120 * 60 / 2);
   // The pixels left of the smallest visible disparity have no match: the checks drop them.
   EXPECT_EQ(c.at(0, 30), 0.0f);
-  StereoParams box = as_box(p);
+  StereoParams box = p;
+  box.aggregation = Aggregation::Box;
+  box.prior_size = 3;
   Matcher local(120, 60, box);
   local.compute(pair.left_view(), pair.right_view());
   EXPECT_EQ(local.confidence().data, nullptr);

@@ -66,9 +66,7 @@ class OpenclCli : public mctstereo::test::FolderTest {
 #define SKIP_WITHOUT_OPENCL_BUILD() \
   if (!build_has_opencl()) GTEST_SKIP() << "this build has no opencl backend"
 
-// The box form of the default preset: the opencl backend does not run SGM aggregation (see
-// Pipeline.SgmOnOpenclIsRefusedAndAutoFallsBack).
-const std::string kPair = "match left.png right.png --num-disparities 16 --aggregation box --prior-size 3 ";
+const std::string kPair = "match left.png right.png --num-disparities 16 ";
 
 TEST_F(OpenclCli, DevicesListsEveryDevice) {
   SKIP_WITHOUT_OPENCL_DEVICE();

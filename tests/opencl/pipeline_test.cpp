@@ -54,7 +54,7 @@ TEST_P(OpenclPipelineCase, EqualsCpuBitForBit) {
 }
 
 // One test each: a case builds its own kernels (on PoCL, a fraction of a second per program).
-INSTANTIATE_TEST_SUITE_P(PresetsAndAwkwardCases, OpenclPipelineCase, ::testing::ValuesIn(box_pipeline_cases()),
+INSTANTIATE_TEST_SUITE_P(PresetsAndAwkwardCases, OpenclPipelineCase, ::testing::ValuesIn(pipeline_cases()),
                          [](const ::testing::TestParamInfo<PipelineCase>& info) { return info.param.id(); });
 
 // Colour views whose channels differ (so the conversion weights matter), in rows longer than the
@@ -74,7 +74,7 @@ TEST(OpenclPipeline, ColourInputWithPaddedRowsEqualsCpu) {
     }
   const ImageView left{rgb.data(), w, h, stride, PixelFormat::Rgb8};
   const ImageView right{bgr.data(), w, h, stride, PixelFormat::Bgr8};
-  StereoParams p = as_box(preset("balanced"));
+  StereoParams p = preset("balanced");
   p.num_disparities = 16;
   const Maps cpu = run(left, right, p, Backend::Cpu, "", true);
   const Maps ocl = run(left, right, p, Backend::OpenCL, device_of(*rt), true);
@@ -94,7 +94,7 @@ TEST(OpenclPipeline, FramesAndMatchersOnOneDeviceStayExact) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
   MatcherOptions options;
   options.device = device_of(*rt);
-  StereoParams pa = as_box(preset("balanced")), pb = preset("mr-mct-5x5");
+  StereoParams pa = preset("balanced"), pb = preset("mr-mct-5x5");
   pa.num_disparities = 20;
   pb.num_disparities = 28;
   Matcher a(80, 48, pa, Backend::OpenCL, options), b(66, 40, pb, Backend::OpenCL, options);
@@ -113,7 +113,7 @@ TEST(OpenclPipeline, FramesAndMatchersOnOneDeviceStayExact) {
 
 TEST(OpenclPipeline, FloatMapAndInvalidValueAsCpu) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
-  StereoParams p = as_box(preset("balanced"));
+  StereoParams p = preset("balanced");
   p.min_disparity = -3;
   p.num_disparities = 20;
   p.fill = FillMode::None;

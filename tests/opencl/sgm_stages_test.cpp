@@ -80,7 +80,7 @@ void expect_stages_equal(Runtime& rt, const StageCase& c) {
   scratch.data = detail::allocate_aligned<std::uint8_t>(scratch.bytes_per_thread);
   Plane<std::int16_t> want_left(c.w, c.h), want_right(c.w, c.h);
   Plane<std::uint8_t> want_margin(c.w, c.h);
-  detail::reference::sgm_costs(left, right, c.prior ? &coarse : nullptr, band, c.shd_window, host);
+  detail::reference::sgm_costs(left, right, c.prior ? &coarse : nullptr, band, c.shd_window, scratch, host);
   const std::vector<std::uint16_t> want_cost = cost;
   detail::reference::sgm_aggregate(pair.left, paths, scratch, host);
   detail::reference::sgm_select(host, select, scratch, want_left, &want_right, &want_margin);
