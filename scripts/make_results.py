@@ -74,6 +74,11 @@ NOT_FROM_THIS_RUN = [
 TARGET_BEST_PRESET_PERCENT_BAD = 9.5
 TARGET_MULTI_RESOLUTION_PERCENT_BAD = 11.0
 TARGET_REALTIME_X_STEREOBM = 4.0
+# Band SGM: the Middlebury 2003 average of 12 per preset (at most), and speed at 640x480, 64
+# disparities, 2 threads: balanced's frame rate over StereoBM's, quality's over StereoSGBM's (at least).
+TARGET_SGM_PERCENT_BAD = {"quality": 7.5, "balanced": 8.0, "sgm-full": 7.5}
+TARGET_BALANCED_X_STEREOBM = 2.0
+TARGET_QUALITY_X_STEREOSGBM = 2.0
 
 # The preview rows: left image, ground truth, then these methods where the eval has them.
 PREVIEW_METHODS = ["quality", "realtime", STEREOBM, STEREOSGBM]
@@ -837,6 +842,16 @@ def targets_2003(report, ev):
     if not met:
         report.losses.append(("Targets", f"The best preset `{best}` ({best_value:.2f} %) misses the "
                               f"{TARGET_BEST_PRESET_PERCENT_BAD} % target on Middlebury 2003."))
+    sgm = [(p, t) for p, t in TARGET_SGM_PERCENT_BAD.items() if p in scored]
+    if sgm:
+        parts = []
+        for p, t in sgm:
+            v = ev.methods[p]["average_percent_bad"]
+            parts.append(f"`{p}` {v:.2f} % (target {number(t)} %: {'met' if v <= t else 'missed'})")
+            if v > t:
+                report.losses.append(("Targets", f"Band SGM `{p}` at {v:.2f} % misses its {number(t)} % target on "
+                                      f"Middlebury 2003."))
+        text += " Band SGM: " + join_words(parts) + "."
     report.add(text)
 
 
@@ -1067,6 +1082,22 @@ def speed_headline(report, bench, file_name, ev2003):
                                   f"{ms(q['median_ms'])} ms against {ms(sgbm['median_ms'])} ms."))
     else:
         lines.append("`quality` or StereoSGBM was not timed in this run: the SGBM target is not checked.")
+    b = records.get("balanced")
+    if b and b["ratio"] is not None:
+        met = b["ratio"] >= TARGET_BALANCED_X_STEREOBM
+        lines.append(f"band SGM `balanced` at least {number(TARGET_BALANCED_X_STEREOBM)} x StereoBM: "
+                     f"**{'met' if met else 'missed'}**, {ratio(b['ratio'])} x.")
+        if not met:
+            report.losses.append(("Targets", f"`balanced` (band SGM) runs at {ratio(b['ratio'])} x StereoBM at {group}, "
+                                  f"short of the {number(TARGET_BALANCED_X_STEREOBM)} x target."))
+    if q and sgbm:
+        x = sgbm["median_ms"] / q["median_ms"]
+        met = x >= TARGET_QUALITY_X_STEREOSGBM
+        lines.append(f"band SGM `quality` at least {number(TARGET_QUALITY_X_STEREOSGBM)} x StereoSGBM's frame rate: "
+                     f"**{'met' if met else 'missed'}**, {ratio(x)} x.")
+        if not met:
+            report.losses.append(("Targets", f"`quality` (band SGM) runs at {ratio(x)} x StereoSGBM's frame rate at "
+                                  f"{group}, short of the {number(TARGET_QUALITY_X_STEREOSGBM)} x target."))
     report.add("Against the targets:\n\n" + "\n".join(f"- {line}" for line in lines))
     for m, r in records.items():
         if r["backend"] is None:
