@@ -149,8 +149,11 @@ ParameterFlags::ParameterFlags(CLI::App& app) {
                  "the coarse-to-fine band, 4 or 8 paths)")
       ->check(CLI::IsMember({"box", "sgm4", "sgm8"}))
       ->group(kParameterGroup);
+  // Box aggregation searches around the 3x3 prior: switching an SGM preset to box takes that prior
+  // too (an explicit --prior-size, applied after this, still decides).
   overrides_.push_back({"--aggregation", app.get_option("--aggregation"), [this](StereoParams& p) {
                           p.aggregation = parse_enum(aggregation_, {Aggregation::Box, Aggregation::Sgm4, Aggregation::Sgm8});
+                          if (p.aggregation == Aggregation::Box) p.prior_size = 3;
                         }});
   add(app, "--p1", v.sgm_p1, "SGM penalty of a one-disparity step along a path, cost units (Hamming bits); [0, 16383]",
       [&v](StereoParams& p) { p.sgm_p1 = v.sgm_p1; });

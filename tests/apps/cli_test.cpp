@@ -158,7 +158,7 @@ TEST_F(Cli, SgmFlagsAndConfidenceRefuseBadValues) {
   expect_failure(kPair + "-o d.pfm --max-band 0", kUsage, "sgm_max_band = 0 must be in [1, 255] (--max-band)");
   expect_failure(kPair + "-o d.pfm --finest-radius 20", kUsage, "finest_search_radius = 20 must be in [-1, 16]");
   expect_failure(kPair + "-o d.pfm --prior-size 7", kUsage, "prior_size = 7 must be 3 or 5 (--prior-size)");
-  expect_failure(kPair + "-o d.pfm --aggregation box", kUsage, "prior_size = 5 needs SGM aggregation");
+  expect_failure(kPair + "-o d.pfm --aggregation box --prior-size 5", kUsage, "prior_size = 5 needs SGM aggregation");
   expect_failure(kPair + "-o d.pfm --aggregation nonsense", kUsage, "--aggregation");
   expect_failure(kPair + "-o d.pfm --aggregation sgm8 --census-window 9 --shd-window 9 --p2 3000", kUsage,
                  "SGM sums could overflow 16 bits: paths (8) x (largest cost 6480");
@@ -166,9 +166,13 @@ TEST_F(Cli, SgmFlagsAndConfidenceRefuseBadValues) {
   expect_failure(kPair + "-o d.pfm --confidence left.png", kUsage, "is the input");
   expect_failure(kPair + "-o d.pfm --confidence d.pfm", kUsage, "-o and --confidence are the same file 'd.pfm'");
   expect_failure(kPair + "-o d.pfm --color c.png --confidence c.png", kUsage, "are the same file 'c.png'");
+  expect_failure(kPair + "-o d.pfm --color c.png --confidence ./c.png", kUsage, "are the same file");
   expect_failure(kPair + "-o d.pfm --confidence c.pfm --preset realtime", kUsage,
                  "the confidence map needs SGM aggregation");
   expect_failure(kPair + "--confidence c.pfm --check-rectification", kUsage, "-o,--output is required with");
+  // --aggregation box takes the 3x3 prior with it: the box form of the default preset runs.
+  const Result box = run(kPair + "-o box.pfm --aggregation box --num-disparities 16");
+  EXPECT_EQ(box.status, 0) << box.output;
 }
 
 TEST_F(Cli, PngFormatsHoldThePfmValuesScaled) {
