@@ -1329,7 +1329,9 @@ def speed_opencl(report, bench, file_name):
         report.add(f"Median per frame at {size_text(size)}, {d} disparities, ms: device time of each kernel from "
                    "OpenCL profiling events, host wall time of upload, download (and speckle removal, which this "
                    "backend runs on the host) and of the frame.")
-        report.add(table(["preset"] + labels, [[f"`{m}`"] + [ms(st[k]) for k in labels] for m, st in kernel_rows],
+        # A stage only some presets have (the confidence of band SGM) is '-' for the others.
+        report.add(table(["preset"] + labels, [[f"`{m}`"] + [ms(st[k]) if k in st else "-" for k in labels]
+                                               for m, st in kernel_rows],
                          ["---"] + ["---:"] * len(labels)))
 
 

@@ -143,7 +143,8 @@ bool have_opencl();
 std::vector<OpenclDevice> opencl_devices();
 
 /// Bytes the matcher of the cpu backend allocates for (params, width, height): grows with W x H x
-/// (search width at the finest level), not with W x H x D.
+/// (search width at the finest level), not with W x H x D. Band SGM adds W x H x (its band, rounded
+/// up to 16) x 4 bytes at the finest level (the whole range with one level, as sgm-full).
 std::size_t estimate_memory(const StereoParams& params, int width, int height,
                             const MatcherOptions& options = {});
 
