@@ -1,6 +1,6 @@
 // Winners on the SGM sums, for the left view and, from the same sums, for the right view.
+#include <algorithm>
 #include <climits>
-#include <vector>
 
 #include "stages.hpp"
 
