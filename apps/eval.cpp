@@ -208,12 +208,6 @@ MapView<T> mutable_map_view(cv::Mat& m) {
   return {m.ptr<T>(0), m.cols, m.rows, static_cast<std::ptrdiff_t>(m.step[0] / sizeof(T))};
 }
 
-std::string lower_extension(const std::string& path) {
-  std::string ext = fs::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
-  return ext;
-}
-
 // A PFM file as Middlebury 2014 stores ground truth: "Pf" (one channel), width and height, a
 // scale whose sign is the byte order (negative: little-endian), one whitespace byte, then 32-bit
 // floats with the bottom row first. Returned top row first, CV_32F.

@@ -23,13 +23,13 @@ namespace mctstereo::app {
 
 namespace fs = std::filesystem;
 
-namespace {
-
 std::string lower_extension(const std::string& path) {
   std::string ext = fs::path(path).extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
   return ext;
 }
+
+namespace {
 
 std::vector<std::uint8_t> read_bytes(const std::string& path, std::string_view role) {
   const std::string what = "cannot read " + std::string(role) + " " + in_quotes(path) + ": ";

@@ -58,6 +58,9 @@ std::vector<std::uint8_t> encode_pfm(MapView<const float> map);
 std::vector<std::uint8_t> encode_disparity(MapView<const std::int16_t> q4, std::int16_t invalid_q4,
                                            int min_disparity, DisparityFormat format);
 
+/// The extension of `path` in lower case, with its dot (".png"); "" without one.
+std::string lower_extension(const std::string& path);
+
 /// The bytes of a confidence map (values in [0, 1]): `.pfm` as float, `.png` as 8-bit gray
 /// round(255 c). UsageError naming the path for another extension.
 std::vector<std::uint8_t> encode_confidence(MapView<const float> confidence, const std::string& path);

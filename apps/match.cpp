@@ -1,8 +1,6 @@
 #include "match.hpp"
 
-#include <cctype>
 #include <cstdio>
-#include <filesystem>
 #include <iostream>
 #include <limits>
 #include <map>
@@ -191,14 +189,6 @@ std::string MatchCommand::report_rectification(const cv::Mat& left, const cv::Ma
   return line.str();
 }
 
-namespace {
-bool lower_is_png(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext == ".png";
-}
-}  // namespace
-
 void MatchCommand::run() const {
   const StereoParams requested = parameters_.resolve();
   check_parameters(requested);
@@ -337,7 +327,7 @@ void MatchCommand::run() const {
   }
   if (!confidence_.empty()) {
     outputs.add(confidence_, encode_confidence(matcher.confidence(), confidence_));
-    wrote += ", " + confidence_ + " (confidence, 0 to 1" + (lower_is_png(confidence_) ? " as 0 to 255)" : ")");
+    wrote += ", " + confidence_ + " (confidence, 0 to 1" + (lower_extension(confidence_) == ".png" ? " as 0 to 255)" : ")");
   }
   if (!depth_output_.empty() || !ply_output_.empty() || !obj_output_.empty())
     wrote += write_depth_outputs(matcher.disparity_q4(), invalid, left, calibration, outputs);

@@ -245,6 +245,25 @@ inline Interval sgm_band_at(const Plane<std::int16_t>* coarse, const SgmBandConf
   return {lo, lo > hi ? lo - 1 : std::min(hi, lo + config.max_band - 1)};
 }
 
+/// The SGM winner's margin 255 (S2 - S1) / S2 (second == INT_MAX: no candidate outside
+/// best - 1 .. best + 1; then, or when S2 = 0, 0).
+inline std::uint8_t sgm_margin(int best_sum, int second) {
+  return second != std::numeric_limits<int>::max() && second > 0
+             ? static_cast<std::uint8_t>(255 * (second - best_sum) / second)
+             : 0;
+}
+
+/// An SGM winner's Q4 value after uniqueness and sub-pixel: kInvalid when the uniqueness test
+/// fails; cm1, cp1 < 0 mean that best - 1, best + 1 are not candidates.
+inline std::int16_t sgm_winner_q4(int best, int best_sum, int second, int cm1, int cp1, const SgmSelectConfig& config) {
+  if (config.uniqueness_ratio > 0 && second != std::numeric_limits<int>::max() &&
+      100 * (second - best_sum) <= config.uniqueness_ratio * best_sum)
+    return kInvalid;
+  int q4 = 16 * best;
+  if (config.subpixel && cm1 >= 0 && cp1 >= 0) q4 += subpixel_offset_q4(cm1, best_sum, cp1);
+  return static_cast<std::int16_t>(q4);
+}
+
 /// Confidence of one pixel: see the stage confidence().
 inline std::uint8_t confidence_at(const Plane<std::uint8_t>& margin, const Plane<std::int16_t>& checked,
                                   const Plane<std::int16_t>* right, int threshold, int x, int y) {

@@ -33,8 +33,22 @@ std::map<std::string, std::string> read_scene_txt(const fs::path& file) {
   return kv;
 }
 
-// Bad pixels (|d - gt| > 1, invalid counted as bad) in the nonocc, all and disc (== 255) masks.
-Scores score_scene(const fs::path& dir, const std::string& preset_name) {
+// A scene matched with a preset over its own range: ground truth, masks and the matcher's frame.
+struct MatchedScene {
+  cv::Mat gt, masks[3];  // nonocc, all, disc
+  double scale = 1;
+  Matcher matcher;
+  int width() const { return gt.cols; }
+  int height() const { return gt.rows; }
+  // Whether (x, y) has ground truth in mask k, and whether the map is wrong there (> 1 px, or none).
+  bool counted(int k, int x, int y) const { return masks[k].at<std::uint8_t>(y, x) == 255 && gt.at<std::uint8_t>(y, x) != 0; }
+  bool bad(int x, int y) const {
+    const float d = matcher.disparity().at(x, y);
+    return std::isnan(d) || std::fabs(d - gt.at<std::uint8_t>(y, x) / scale) > 1.0;
+  }
+};
+
+MatchedScene match_scene(const fs::path& dir, const std::string& preset_name) {
   auto kv = read_scene_txt(dir / "scene.txt");
   // The views go in as colour, converted by the library, exactly as `mctstereo eval` does;
   // IMREAD_GRAYSCALE expands the palette PNGs (ground truth, masks) to their gray values.
@@ -47,22 +61,27 @@ Scores score_scene(const fs::path& dir, const std::string& preset_name) {
   EXPECT_FALSE(left.empty() || right.empty() || gt.empty() || masks[0].empty() || masks[1].empty() ||
                masks[2].empty())
       << dir;
-  const double scale = std::stod(kv["gt_scale"]);
   StereoParams p = preset(preset_name);
   p.min_disparity = 0;
   p.num_disparities = std::stoi(kv["max_disp"]) + 1;
-  Matcher m(left.cols, left.rows, p);
-  m.compute({left.data, left.cols, left.rows, static_cast<std::ptrdiff_t>(left.step), PixelFormat::Bgr8},
-            {right.data, right.cols, right.rows, static_cast<std::ptrdiff_t>(right.step), PixelFormat::Bgr8});
+  MatchedScene scene{gt, {masks[0], masks[1], masks[2]}, std::stod(kv["gt_scale"]), Matcher(left.cols, left.rows, p)};
+  scene.matcher.compute(
+      {left.data, left.cols, left.rows, static_cast<std::ptrdiff_t>(left.step), PixelFormat::Bgr8},
+      {right.data, right.cols, right.rows, static_cast<std::ptrdiff_t>(right.step), PixelFormat::Bgr8});
+  return scene;
+}
+
+// Bad pixels (|d - gt| > 1, invalid counted as bad) in the nonocc, all and disc (== 255) masks.
+Scores score_scene(const fs::path& dir, const std::string& preset_name) {
+  const MatchedScene m = match_scene(dir, preset_name);
   double out[3];
   for (int k = 0; k < 3; ++k) {
     long n = 0, bad = 0;
-    for (int y = 0; y < left.rows; ++y)
-      for (int x = 0; x < left.cols; ++x) {
-        if (masks[k].at<std::uint8_t>(y, x) != 255 || gt.at<std::uint8_t>(y, x) == 0) continue;
+    for (int y = 0; y < m.height(); ++y)
+      for (int x = 0; x < m.width(); ++x) {
+        if (!m.counted(k, x, y)) continue;
         ++n;
-        const float d = m.disparity().at(x, y);
-        if (std::isnan(d) || std::fabs(d - gt.at<std::uint8_t>(y, x) / scale) > 1.0) ++bad;
+        bad += m.bad(x, y);
       }
     out[k] = 100.0 * bad / std::max(n, 1L);
   }
@@ -75,27 +94,14 @@ struct Sparsification {
   double all = 0, confident_half = 0;
 };
 Sparsification sparsification(const fs::path& dir, const std::string& preset_name) {
-  auto kv = read_scene_txt(dir / "scene.txt");
-  const cv::Mat left = cv::imread((dir / kv["left"]).string(), cv::IMREAD_COLOR);
-  const cv::Mat right = cv::imread((dir / kv["right"]).string(), cv::IMREAD_COLOR);
-  const cv::Mat gt = cv::imread((dir / kv["gt"]).string(), cv::IMREAD_GRAYSCALE);
-  const cv::Mat all = cv::imread((dir / "all.png").string(), cv::IMREAD_GRAYSCALE);
-  const double scale = std::stod(kv["gt_scale"]);
-  StereoParams p = preset(preset_name);
-  p.min_disparity = 0;
-  p.num_disparities = std::stoi(kv["max_disp"]) + 1;
-  Matcher m(left.cols, left.rows, p);
-  m.compute({left.data, left.cols, left.rows, static_cast<std::ptrdiff_t>(left.step), PixelFormat::Bgr8},
-            {right.data, right.cols, right.rows, static_cast<std::ptrdiff_t>(right.step), PixelFormat::Bgr8});
-  EXPECT_NE(m.confidence().data, nullptr) << preset_name;
-  if (m.confidence().data == nullptr) return {};
+  const MatchedScene m = match_scene(dir, preset_name);
+  const MapView<const float> confidence = m.matcher.confidence();
+  EXPECT_NE(confidence.data, nullptr) << preset_name;
+  if (confidence.data == nullptr) return {};
   std::vector<std::pair<float, bool>> pixels;  // (confidence, bad)
-  for (int y = 0; y < left.rows; ++y)
-    for (int x = 0; x < left.cols; ++x) {
-      if (all.at<std::uint8_t>(y, x) != 255 || gt.at<std::uint8_t>(y, x) == 0) continue;
-      const float d = m.disparity().at(x, y);
-      pixels.push_back({m.confidence().at(x, y), std::isnan(d) || std::fabs(d - gt.at<std::uint8_t>(y, x) / scale) > 1.0});
-    }
+  for (int y = 0; y < m.height(); ++y)
+    for (int x = 0; x < m.width(); ++x)
+      if (m.counted(1, x, y)) pixels.push_back({confidence.at(x, y), m.bad(x, y)});
   std::stable_sort(pixels.begin(), pixels.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
   const auto percent_bad = [&](std::size_t n) {
     std::size_t bad = 0;

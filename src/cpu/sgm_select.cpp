@@ -18,26 +18,6 @@
 
 #include "stages.hpp"
 
-#ifndef MCTSTEREO_CPU_SGM_SELECT_ONCE
-#define MCTSTEREO_CPU_SGM_SELECT_ONCE
-namespace mctstereo::detail::cpu {
-
-// Uniqueness, sub-pixel and the Q4 value from a winner's terms (cm1, cp1 < 0: not a candidate;
-// second == INT_MAX: no candidate outside best - 1 .. best + 1), as the reference's select_one.
-inline std::int16_t finish_winner(int best, int best_sum, int second, int cm1, int cp1, const SgmSelectConfig& config) {
-  if (config.uniqueness_ratio > 0 && second != INT_MAX && 100 * (second - best_sum) <= config.uniqueness_ratio * best_sum)
-    return kInvalid;
-  int q4 = 16 * best;
-  if (config.subpixel && cm1 >= 0 && cp1 >= 0) q4 += subpixel_offset_q4(cm1, best_sum, cp1);
-  return static_cast<std::int16_t>(q4);
-}
-
-inline std::uint8_t margin_of(int best_sum, int second) {
-  return second != INT_MAX && second > 0 ? static_cast<std::uint8_t>(255 * (second - best_sum) / second) : 0;
-}
-
-}  // namespace mctstereo::detail::cpu
-#endif
 
 HWY_BEFORE_NAMESPACE();
 namespace mctstereo::detail::cpu::HWY_NAMESPACE {
@@ -99,7 +79,7 @@ void SelectRightRow(const SgmVolume& v, const SgmSelectConfig& config, int y, st
     }
     const int sec = second[x] == kSgmInf ? INT_MAX : second[x];
     const int below = cm1[x] == kSgmInf ? -1 : cm1[x], above = cp1[x] == kSgmInf ? -1 : cp1[x];
-    out[x] = finish_winner(best_d[x], best_sum[x], sec, below, above, config);
+    out[x] = sgm_winner_q4(best_d[x], best_sum[x], sec, below, above, config);
   }
 }
 
@@ -136,10 +116,10 @@ HWY_INLINE std::int16_t SelectLeft(const std::uint16_t* sum, int lo, int count, 
   }
   const int sec_raw = hn::GetLane(hn::MinOfLanes(d, vsec));
   const int second = sec_raw == kSgmInf ? INT_MAX : sec_raw;
-  if (margin) *margin = margin_of(best_sum, second);
+  if (margin) *margin = sgm_margin(best_sum, second);
   const int cm1 = best > 0 ? sum[best - 1] : -1;
   const int cp1 = best + 1 < count ? sum[best + 1] : -1;
-  return finish_winner(lo + best, best_sum, second, cm1, cp1, config);
+  return sgm_winner_q4(lo + best, best_sum, second, cm1, cp1, config);
 }
 
 void SgmSelect(const SgmVolume& v, const SgmSelectConfig& config, SgmScratch& scratch, Plane<std::int16_t>& left,

@@ -21,14 +21,9 @@ std::int16_t select_one(int first, int last, Sum sum, Present present, const Sgm
   int second = INT_MAX;
   for (int d = first; d <= last; ++d)
     if (present(d) && (d < best - 1 || d > best + 1)) second = std::min(second, sum(d));
-  if (margin && second != INT_MAX && second > 0) *margin = static_cast<std::uint8_t>(255 * (second - best_sum) / second);
-  if (config.uniqueness_ratio > 0 && second != INT_MAX &&
-      100 * (second - best_sum) <= config.uniqueness_ratio * best_sum)
-    return kInvalid;
-  int q4 = 16 * best;
-  if (config.subpixel && present(best - 1) && present(best + 1))
-    q4 += subpixel_offset_q4(sum(best - 1), best_sum, sum(best + 1));
-  return static_cast<std::int16_t>(q4);
+  if (margin) *margin = sgm_margin(best_sum, second);
+  return sgm_winner_q4(best, best_sum, second, present(best - 1) ? sum(best - 1) : -1,
+                       present(best + 1) ? sum(best + 1) : -1, config);
 }
 
 }  // namespace
