@@ -18,6 +18,7 @@
 #define HWY_WANT_AVX3_DL
 #endif
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/cache_control.h>
 #include <hwy/highway.h>
 
 #include <omp.h>
@@ -72,6 +73,8 @@ struct PathLines {
 }  // namespace mctstereo::detail::cpu
 #endif
 
+#include "cpu/min_lanes-inl.h"
+
 HWY_BEFORE_NAMESPACE();
 namespace mctstereo::detail::cpu::HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
@@ -85,22 +88,44 @@ struct PathState {
   int m_prev = kSgmInf, lo_prev = 0, gray_prev = 0;  // m_prev == kSgmInf: (re)start the path
 };
 
-// One step of a path: the values of pixel (x, y) from its predecessor's, added into the sums
-// (written when `first`).
-HWY_INLINE void PathStep(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, const int* p2_of_diff, int x,
-                         int y, bool first, PathState& st, SgmVolume& v) {
+// The planes of one row that a step reads and writes, looked up once per row: through the
+// planes, every pixel would reload their data pointers and strides (the stores into the sums
+// may alias them as far as the compiler knows) and multiply again.
+struct RowView {
+  const std::uint16_t* cost;  // pixel 0's slot
+  std::uint16_t* sum;
+  const std::int16_t* lo;
+  const std::uint8_t* gray;
+};
+
+RowView row_view(const Plane<std::uint8_t>& gray, SgmVolume& v, int y) {
+  return RowView{v.cost_at(0, y), v.sum_at(0, y), v.lo.row(y), gray.row(y)};
+}
+
+// What every step of a path shares.
+struct PathConstants {
+  int stride, pad;
+  std::uint16_t p1;
+  const int* p2_of_diff;  // P2' of every gray difference
+};
+
+// One step of a path: the values of pixel x of row r from its predecessor's, added into the
+// sums (written when kFirst). kVecs = stride / lanes when known at compile time (0: any).
+template <bool kFirst, int kVecs>
+HWY_INLINE void PathStep(const RowView& r, int x, const PathConstants& c, PathState& st) {
   const DU16 d;
   const int n = static_cast<int>(hn::Lanes(d));
-  const int stride = v.stride, pad = path_buffer_pad(stride);
-  const std::uint16_t* cost = v.cost_at(x, y);
-  std::uint16_t* sum = v.sum_at(x, y);
-  std::uint16_t* l = st.cur + pad;
-  const int lo = v.lo.at(x, y), g = gray.at(x, y);
+  const int stride = kVecs > 0 ? kVecs * n : c.stride;
+  const std::size_t slot = static_cast<std::size_t>(x) * stride;
+  const std::uint16_t* cost = r.cost + slot;
+  std::uint16_t* sum = r.sum + slot;
+  std::uint16_t* l = st.cur + c.pad;
+  const int lo = r.lo[x], g = r.gray[x];
   auto vmin = hn::Set(d, kSgmInf);
   // The values go to the buffer (for the next step) and into the sums in the same pass.
   const auto emit = [&](int k, decltype(vmin) value) {
     hn::Store(value, d, l + k);
-    hn::StoreU(first ? value : hn::SaturatedAdd(hn::LoadU(d, sum + k), value), d, sum + k);
+    hn::StoreU(kFirst ? value : hn::SaturatedAdd(hn::LoadU(d, sum + k), value), d, sum + k);
     vmin = hn::Min(vmin, value);
   };
   if (st.m_prev == kSgmInf) {
@@ -108,11 +133,11 @@ HWY_INLINE void PathStep(const Plane<std::uint8_t>& gray, const SgmPathConfig& c
     for (int k = 0; k < stride; k += n) emit(k, hn::LoadU(d, cost + k));
   } else {
     const int s = std::clamp(lo - st.lo_prev, -(stride + 1), stride + 1);
-    const std::uint16_t* q = st.prev + pad + s;
-    const auto p1 = hn::Set(d, static_cast<std::uint16_t>(config.p1));
+    const std::uint16_t* q = st.prev + c.pad + s;
+    const auto p1 = hn::Set(d, c.p1);
     const auto m = hn::Set(d, static_cast<std::uint16_t>(st.m_prev));
     const int diff = g > st.gray_prev ? g - st.gray_prev : st.gray_prev - g;
-    const auto jump = hn::Set(d, static_cast<std::uint16_t>(st.m_prev + p2_of_diff[diff]));
+    const auto jump = hn::Set(d, static_cast<std::uint16_t>(st.m_prev + c.p2_of_diff[diff]));
     for (int k = 0; k < stride; k += n) {
       const auto same = hn::LoadU(d, q + k);
       const auto below = hn::SaturatedAdd(hn::LoadU(d, q + k - 1), p1);
@@ -121,7 +146,7 @@ HWY_INLINE void PathStep(const Plane<std::uint8_t>& gray, const SgmPathConfig& c
       emit(k, hn::SaturatedAdd(hn::LoadU(d, cost + k), hn::Sub(t, m)));
     }
   }
-  st.m_prev = hn::GetLane(hn::MinOfLanes(d, vmin));
+  st.m_prev = MinLane(vmin);
   st.lo_prev = lo;
   st.gray_prev = g;
   std::swap(st.prev, st.cur);
@@ -133,47 +158,67 @@ PathState fresh_state(std::uint16_t* buffers, int entries) {
 }
 
 // A path along one line (a diagonal), pixel after pixel.
-void PathLine(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, const int* p2_of_diff, int x, int y, int dx,
-              int dy, bool first, std::uint16_t* buffers, SgmVolume& v) {
+template <int kVecs>
+void PathLine(const Plane<std::uint8_t>& gray, const PathConstants& c, int x, int y, int dx, int dy,
+              std::uint16_t* buffers, SgmVolume& v) {
   PathState st = fresh_state(buffers, path_buffer_entries(v.stride));
   for (; x >= 0 && x < v.width && y >= 0 && y < v.height; x += dx, y += dy)
-    PathStep(gray, config, p2_of_diff, x, y, first, st, v);
+    PathStep<false, kVecs>(row_view(gray, v, y), x, c, st);
 }
 
 // A horizontal path over kBlock rows at once, column after column. A step depends on the one
-// before through m(q) (a reduction over the lanes: some 15 cycles of latency), so one line alone
-// is latency-bound; interleaving independent lines fills that time.
-void PathRows(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, const int* p2_of_diff, int y0, int dx,
-              bool first, std::uint16_t* buffers, SgmVolume& v) {
+// before through m(q) (a reduction over the lanes), so one line alone is latency-bound;
+// interleaving independent lines fills that time.
+template <bool kFirst, int kVecs>
+void PathRows(const Plane<std::uint8_t>& gray, const PathConstants& c, int y0, int dx, std::uint16_t* buffers,
+              SgmVolume& v) {
   const int entries = path_buffer_entries(v.stride);
-  const int y1 = std::min(y0 + kBlock, v.height);
+  const int rows = std::min(y0 + kBlock, v.height) - y0;
   PathState st[kBlock];
-  for (int y = y0; y < y1; ++y) st[y - y0] = fresh_state(buffers + 2 * entries * (y - y0), entries);
+  RowView view[kBlock];
+  for (int j = 0; j < rows; ++j) {
+    st[j] = fresh_state(buffers + 2 * entries * j, entries);
+    view[j] = row_view(gray, v, y0 + j);
+  }
   for (int i = 0; i < v.width; ++i) {
     const int x = dx > 0 ? i : v.width - 1 - i;
-    for (int y = y0; y < y1; ++y) PathStep(gray, config, p2_of_diff, x, y, first, st[y - y0], v);
+    for (int j = 0; j < rows; ++j) PathStep<kFirst, kVecs>(view[j], x, c, st[j]);
   }
 }
 
 // A vertical path over kBlock columns at once, row after row: the columns' values stay in
 // their own buffers, and the volume is read along rows (one column at a time would jump a whole
-// row of slots per step, a cache and TLB miss each: measured 8x slower at 640 x 480).
-void PathColumns(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, const int* p2_of_diff, int x0, int dy,
-                 bool first, std::uint16_t* buffers, SgmVolume& v) {
+// row of slots per step, a cache and TLB miss each: measured 8x slower at 640 x 480). Each row
+// of a block is a short run in a new page, where the hardware prefetchers do not follow: the
+// block's slots a few rows ahead are prefetched.
+template <int kVecs>
+void PathColumns(const Plane<std::uint8_t>& gray, const PathConstants& c, int x0, int dy, std::uint16_t* buffers,
+                 SgmVolume& v) {
   const int entries = path_buffer_entries(v.stride);
   const int x1 = std::min(x0 + kBlock, v.width);
+  constexpr int kAhead = 4;
   PathState st[kBlock];
   for (int x = x0; x < x1; ++x) st[x - x0] = fresh_state(buffers + 2 * entries * (x - x0), entries);
+  const int bytes = (x1 - x0) * v.stride * static_cast<int>(sizeof(std::uint16_t));
   for (int i = 0; i < v.height; ++i) {
     const int y = dy > 0 ? i : v.height - 1 - i;
-    for (int x = x0; x < x1; ++x) PathStep(gray, config, p2_of_diff, x, y, first, st[x - x0], v);
+    const int ahead = y + kAhead * dy;
+    if (ahead >= 0 && ahead < v.height) {
+      const char* cost = reinterpret_cast<const char*>(v.cost_at(x0, ahead));
+      const char* sum = reinterpret_cast<const char*>(v.sum_at(x0, ahead));
+      for (int b = 0; b < bytes; b += 64) {
+        hwy::Prefetch(cost + b);
+        hwy::Prefetch(sum + b);
+      }
+    }
+    const RowView view = row_view(gray, v, y);
+    for (int x = x0; x < x1; ++x) PathStep<false, kVecs>(view, x, c, st[x - x0]);
   }
 }
 
-void SgmAggregate(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, SgmScratch& scratch, SgmVolume& v) {
-  // P2' of every gray difference: one look-up per step instead of a division.
-  int p2_of_diff[256];
-  for (int diff = 0; diff < 256; ++diff) p2_of_diff[diff] = sgm_p2_at(config, diff, 0);
+template <int kVecs>
+void AggregateAll(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, const PathConstants& c,
+                  SgmScratch& scratch, SgmVolume& v) {
   const int column_blocks = (v.width + kBlock - 1) / kBlock, row_blocks = (v.height + kBlock - 1) / kBlock;
 #pragma omp parallel num_threads(scratch.threads)
   {
@@ -184,13 +229,13 @@ void SgmAggregate(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, 
     // the volume from memory once instead of twice.
 #pragma omp for schedule(dynamic, 1)
     for (int b = 0; b < row_blocks; ++b) {
-      PathRows(gray, config, p2_of_diff, b * kBlock, +1, true, buffers, v);
-      PathRows(gray, config, p2_of_diff, b * kBlock, -1, false, buffers, v);
+      PathRows<true, kVecs>(gray, c, b * kBlock, +1, buffers, v);
+      PathRows<false, kVecs>(gray, c, b * kBlock, -1, buffers, v);
     }
 #pragma omp for schedule(dynamic, 1)
     for (int b = 0; b < column_blocks; ++b) {
-      PathColumns(gray, config, p2_of_diff, b * kBlock, +1, false, buffers, v);
-      PathColumns(gray, config, p2_of_diff, b * kBlock, -1, false, buffers, v);
+      PathColumns<kVecs>(gray, c, b * kBlock, +1, buffers, v);
+      PathColumns<kVecs>(gray, c, b * kBlock, -1, buffers, v);
     }
     // The diagonals (8 paths), line by line.
     for (int r = 4; r < config.paths; ++r) {
@@ -199,10 +244,22 @@ void SgmAggregate(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, 
       for (int i = 0; i < lines.count(); ++i) {
         int x, y;
         lines.start(i, x, y);
-        PathLine(gray, config, p2_of_diff, x, y, lines.dx, lines.dy, false, buffers, v);
+        PathLine<kVecs>(gray, c, x, y, lines.dx, lines.dy, buffers, v);
       }
     }
   }
+}
+
+void SgmAggregate(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, SgmScratch& scratch, SgmVolume& v) {
+  // P2' of every gray difference: one look-up per step instead of a division.
+  int p2_of_diff[256];
+  for (int diff = 0; diff < 256; ++diff) p2_of_diff[diff] = sgm_p2_at(config, diff, 0);
+  const PathConstants c{v.stride, path_buffer_pad(v.stride), static_cast<std::uint16_t>(config.p1), p2_of_diff};
+  // Slots of one and two vectors (16 and 32 candidates on AVX2 and AVX-512) unroll.
+  const int vecs = v.stride / static_cast<int>(hn::Lanes(DU16()));
+  if (vecs == 1) AggregateAll<1>(gray, config, c, scratch, v);
+  else if (vecs == 2) AggregateAll<2>(gray, config, c, scratch, v);
+  else AggregateAll<0>(gray, config, c, scratch, v);
 }
 
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE

@@ -1,7 +1,6 @@
 // Winners on the band SGM sums: the left view with Highway SIMD over each pixel's candidates, the
 // right view by visiting every left candidate once per row (S_R(x - d, d) = S(x, d)), OpenMP over
-// rows. Along a row the left pixels come in increasing x, so each right pixel meets its
-// candidates in increasing d and a strict "<" keeps the smaller d on ties, as the reference.
+// rows.
 // Right-view sums fit u16 (below kSgmInf) and disparities int16 (|d| < 2048).
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "cpu/sgm_select.cpp"
@@ -19,11 +18,20 @@
 #include "stages.hpp"
 
 
+#include "cpu/min_lanes-inl.h"
+
 HWY_BEFORE_NAMESPACE();
 namespace mctstereo::detail::cpu::HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
 using DU16 = hn::CappedTag<std::uint16_t, 16>;
+
+// Pixels x, x + kRightPhases, ... are visited one after the other: neighbouring left pixels
+// update overlapping runs of right pixels, and a vector load that overlaps a store still in
+// flight cannot be forwarded from it (a stall of some 15 cycles on x86, at every pixel when they
+// come in order). The order of the visits no longer gives ties to the smaller d, so the update
+// compares disparities explicitly.
+constexpr int kRightPhases = 16;
 
 // The right view's winners of row y. Left pixel x's candidates lo + k go to the right pixels
 // x - lo - k: reversed, a vector of them is a run of consecutive right pixels, whose running best
@@ -46,7 +54,8 @@ void SelectRightRow(const SgmVolume& v, const SgmSelectConfig& config, int y, st
   const auto inf = hn::Set(d, kSgmInf);
   const auto lane = hn::Iota(di, 0);
   for (int pass = 0; pass < 2; ++pass) {
-    for (int x = 0; x < w; ++x) {
+    for (int x_phase = 0; x_phase < kRightPhases; ++x_phase) {
+     for (int x = x_phase; x < w; x += kRightPhases) {
       const int lo = v.lo.at(x, y), count = v.count.at(x, y);
       const std::uint16_t* sum = v.sum_at(x, y);
       for (int k0 = 0; k0 < count; k0 += n) {
@@ -55,9 +64,11 @@ void SelectRightRow(const SgmVolume& v, const SgmSelectConfig& config, int y, st
         const auto dv = hn::Sub(hn::Set(di, static_cast<std::int16_t>(x - xr0)), lane);  // d = x - xr
         if (pass == 0) {
           const auto old = hn::LoadU(d, best_sum + xr0);
-          const auto better = hn::Lt(s, old);
+          const auto old_d = hn::LoadU(di, best_d + xr0);
+          const auto better = hn::Or(hn::RebindMask(di, hn::Lt(s, old)),
+                                     hn::And(hn::RebindMask(di, hn::Eq(s, old)), hn::Lt(dv, old_d)));
           hn::StoreU(hn::Min(s, old), d, best_sum + xr0);
-          hn::StoreU(hn::IfThenElse(hn::RebindMask(di, better), dv, hn::LoadU(di, best_d + xr0)), di, best_d + xr0);
+          hn::StoreU(hn::IfThenElse(better, dv, old_d), di, best_d + xr0);
         } else {
           const auto delta = hn::Sub(dv, hn::LoadU(di, best_d + xr0));
           const auto present = hn::RebindMask(di, hn::Lt(s, inf));
@@ -70,6 +81,7 @@ void SelectRightRow(const SgmVolume& v, const SgmSelectConfig& config, int y, st
           hn::StoreU(hn::IfThenElse(hn::RebindMask(d, far), hn::Min(sec, s), sec), d, second + xr0);
         }
       }
+     }
     }
   }
   for (int x = 0; x < w; ++x) {
@@ -93,16 +105,20 @@ HWY_INLINE std::int16_t SelectLeft(const std::uint16_t* sum, int lo, int count, 
     if (margin) *margin = 0;
     return kInvalid;
   }
-  auto vmin = hn::LoadU(d, sum);
-  for (int k = n; k < stride; k += n) vmin = hn::Min(vmin, hn::LoadU(d, sum + k));
-  const auto all_min = hn::MinOfLanes(d, vmin);
-  const int best_sum = hn::GetLane(all_min);
-  int best = 0;
-  for (int k = 0; k < stride; k += n) {
-    const intptr_t i = hn::FindFirstTrue(d, hn::Eq(hn::LoadU(d, sum + k), all_min));
-    if (i >= 0) {
-      best = k + static_cast<int>(i);
-      break;
+  int best = 0, best_sum;
+  if (stride == n) {
+    best_sum = FirstMinLane(hn::LoadU(d, sum), best);
+  } else {
+    auto vmin = hn::LoadU(d, sum);
+    for (int k = n; k < stride; k += n) vmin = hn::Min(vmin, hn::LoadU(d, sum + k));
+    best_sum = MinLane(vmin);
+    const auto all_min = hn::Set(d, static_cast<std::uint16_t>(best_sum));
+    for (int k = 0; k < stride; k += n) {
+      const intptr_t i = hn::FindFirstTrue(d, hn::Eq(hn::LoadU(d, sum + k), all_min));
+      if (i >= 0) {
+        best = k + static_cast<int>(i);
+        break;
+      }
     }
   }
   // Second best outside best - 1 .. best + 1: lanes k with (k - best + 1) mod 2^16 <= 2 excluded.
@@ -114,9 +130,9 @@ HWY_INLINE std::int16_t SelectLeft(const std::uint16_t* sum, int lo, int count, 
     const auto near = hn::Not(hn::Lt(two, rel));  // rel <= 2 (unsigned)
     vsec = hn::Min(vsec, hn::IfThenElse(near, inf, hn::LoadU(d, sum + k)));
   }
-  const int sec_raw = hn::GetLane(hn::MinOfLanes(d, vsec));
+  const int sec_raw = MinLane(vsec);
   const int second = sec_raw == kSgmInf ? INT_MAX : sec_raw;
-  if (margin) *margin = sgm_margin(best_sum, second);
+  if (margin) *margin = sgm_margin_fast(best_sum, second);
   const int cm1 = best > 0 ? sum[best - 1] : -1;
   const int cp1 = best + 1 < count ? sum[best + 1] : -1;
   return sgm_winner_q4(lo + best, best_sum, second, cm1, cp1, config);
@@ -130,10 +146,17 @@ void SgmSelect(const SgmVolume& v, const SgmSelectConfig& config, SgmScratch& sc
     auto* rows = reinterpret_cast<std::uint16_t*>(scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread);
 #pragma omp for schedule(dynamic, 4)
     for (int y = 0; y < h; ++y) {
+      // Row pointers and the stride in locals: the margin stores go through a byte pointer, which
+      // may alias anything, and would make the compiler reload them at every pixel.
       std::int16_t* out = left.row(y);
       std::uint8_t* m = margin ? margin->row(y) : nullptr;
+      const std::int16_t* lo = v.lo.row(y);
+      const std::int16_t* count = v.count.row(y);
+      const std::uint16_t* sum = v.sum_at(0, y);
+      const int stride = v.stride;
       for (int x = 0; x < w; ++x)
-        out[x] = SelectLeft(v.sum_at(x, y), v.lo.at(x, y), v.count.at(x, y), v.stride, config, m ? m + x : nullptr);
+        out[x] = SelectLeft(sum + static_cast<std::size_t>(x) * stride, lo[x], count[x], stride, config,
+                            m ? m + x : nullptr);
       if (right) SelectRightRow(v, config, y, rows, right->row(y));
     }
   }

@@ -245,6 +245,28 @@ Plane<std::int16_t> make_prior(int w, int h, int dmin, int dmax, std::uint32_t s
   return random_disparity(cw, ch, seed, lo, hi, 0.1, true);
 }
 
+TEST(SgmMargin, FastEqualsTheIntegerQuotient) {
+  // Every second best S2 with 64 best sums S1 <= S2 each (both ends, neighbours of the values
+  // where 255 (S2 - S1) / S2 crosses an integer, and seeded random ones).
+  std::mt19937 rng(7);
+  int checked = 0;
+  for (int s2 = 1; s2 <= 65534; ++s2) {
+    std::uniform_int_distribution<int> any(0, s2);
+    for (int i = 0; i < 64; ++i) {
+      int s1;
+      if (i < 4) s1 = std::clamp(i < 2 ? i : s2 - (i - 2), 0, s2);
+      else if (i < 32) s1 = std::clamp(s2 - (s2 * ((i - 4) * 9 + 1)) / 255 + (i & 1), 0, s2);
+      else s1 = any(rng);
+      ASSERT_EQ(detail::sgm_margin_fast(s1, s2), detail::sgm_margin(s1, s2)) << s1 << " " << s2;
+      ++checked;
+    }
+  }
+  EXPECT_EQ(detail::sgm_margin_fast(5, std::numeric_limits<int>::max()), 0);
+  EXPECT_EQ(detail::sgm_margin_fast(0, 0), 0);
+  EXPECT_EQ(detail::sgm_margin_fast(1, 3), 170);  // 255 x 2 / 3
+  EXPECT_EQ(checked, 65534 * 64);
+}
+
 TEST(SgmStages, CpuEqualsReference) {
   std::uint32_t seed = 11;
   for (const SgmCase& c : sgm_cases()) {
