@@ -91,50 +91,85 @@ void MirrorCodes(const CensusCodes& right, SgmVolume& v) {
   }
 }
 
-// Costs of one pixel's candidates k = 0 .. stride - 1 (those past count are kSgmInf).
+// Costs of the candidates k = 0 .. stride - 1 of every pixel of a row (those past count are
+// kSgmInf), the window's rows of codes given by pointers. One call per row, so that the window's
+// loops unroll (kWords, kA) and its row pointers stay in registers.
 template <int kWords, int kA>
-HWY_INLINE void PixelCosts(const std::uint32_t* const* left_rows, const std::uint32_t* const* mirror_rows, int x,
-                           int w, int lo, int count, int stride, std::uint16_t* HWY_RESTRICT out) {
+void RowCosts(const std::uint32_t* const* left_rows, const std::uint32_t* const* mirror_rows, int w,
+              const std::int16_t* lo_row, const std::int16_t* count_row, int stride, std::uint16_t* HWY_RESTRICT out) {
   constexpr int kH = kA / 2;
   const DU32 du32;
   const DI32 di32;
   const DU16 du16;
   const int n = static_cast<int>(hn::Lanes(du32));
-  if (count == 0) {
-    for (int k = 0; k < stride; ++k) out[k] = kSgmInf;  // lo may lie anywhere: read nothing
-    return;
-  }
+  const std::uint32_t* left[kA * kWords];
+  const std::uint32_t* mirror[kA * kWords];
+  for (int j = 0; j < kA; ++j)
+    for (int word = 0; word < kWords; ++word) {
+      left[j * kWords + word] = left_rows[j * 3 + word];
+      mirror[j * kWords + word] = mirror_rows[j * 3 + word];
+    }
   const auto inf = hn::Set(di32, kSgmInf);
   const auto iota = hn::Iota(di32, 0);
-  for (int k0 = 0; k0 < stride; k0 += n) {
-    auto acc = hn::Zero(du32);
-    for (int j = 0; j < kA; ++j) {
-      for (int i = -kH; i <= kH; ++i) {
-        const int t = w - 1 - x - i + lo + k0;
-        for (int word = 0; word < kWords; ++word) {
-          const auto l = hn::Set(du32, left_rows[j * 3 + word][x + i]);
-          const auto r = hn::LoadU(du32, mirror_rows[j * 3 + word] + t);
-          acc = hn::Add(acc, hn::PopulationCount(hn::Xor(l, r)));
+  for (int x = 0; x < w; ++x, out += stride) {
+    const int lo = lo_row[x], count = count_row[x];
+    if (count == 0) {
+      for (int k = 0; k < stride; ++k) out[k] = kSgmInf;  // lo may lie anywhere: read nothing
+      continue;
+    }
+    // Mirrored column of candidate k0 of window column i: base - i + k0.
+    const int base = w - 1 - x + lo;
+    for (int k0 = 0; k0 < stride; k0 += n) {
+      auto acc = hn::Zero(du32);
+      for (int j = 0; j < kA; ++j) {
+        for (int i = -kH; i <= kH; ++i) {
+          for (int word = 0; word < kWords; ++word) {
+            const auto l = hn::Set(du32, left[j * kWords + word][x + i]);
+            const auto r = hn::LoadU(du32, mirror[j * kWords + word] + base - i + k0);
+            acc = hn::Add(acc, hn::PopulationCount(hn::Xor(l, r)));
+          }
         }
       }
+      // Costs are at most 9 x 9 x 80: the signed demotion to u16 is exact.
+      const auto in_band = hn::Lt(hn::Add(iota, hn::Set(di32, k0)), hn::Set(di32, count));
+      hn::StoreU(hn::DemoteTo(du16, hn::IfThenElse(in_band, hn::BitCast(di32, acc), inf)), du16, out + k0);
     }
-    // Costs are at most 9 x 9 x 80: the signed demotion to u16 is exact.
-    const auto in_band = hn::Lt(hn::Add(iota, hn::Set(di32, k0)), hn::Set(di32, count));
-    hn::StoreU(hn::DemoteTo(du16, hn::IfThenElse(in_band, hn::BitCast(di32, acc), inf)), du16, out + k0);
   }
 }
 
-using PixelCostsFn = void (*)(const std::uint32_t* const*, const std::uint32_t* const*, int, int, int, int, int,
-                              std::uint16_t*);
+using RowCostsFn = void (*)(const std::uint32_t* const*, const std::uint32_t* const*, int, const std::int16_t*,
+                            const std::int16_t*, int, std::uint16_t*);
 
 template <int kWords>
-PixelCostsFn PixelCostsFor(int a) {
+RowCostsFn RowCostsFor(int a) {
   switch (a) {
-    case 1: return &PixelCosts<kWords, 1>;
-    case 3: return &PixelCosts<kWords, 3>;
-    case 5: return &PixelCosts<kWords, 5>;
-    case 7: return &PixelCosts<kWords, 7>;
-    default: return &PixelCosts<kWords, 9>;
+    case 1: return &RowCosts<kWords, 1>;
+    case 3: return &RowCosts<kWords, 3>;
+    case 5: return &RowCosts<kWords, 5>;
+    case 7: return &RowCosts<kWords, 7>;
+    default: return &RowCosts<kWords, 9>;
+  }
+}
+
+// The band of every pixel of row y (sgm_band_at()), from the coarse row's bands.
+void RowBands(const SgmBandConfig& config, int w, bool has_coarse, int cw, const int* lo_c, const int* hi_c,
+              const int* centre_c, std::int16_t* lo_row, std::int16_t* count_row) {
+  for (int x = 0; x < w; ++x) {
+    int lo = config.dmin, hi = config.dmax, centre = (config.dmin + config.dmax) >> 1;
+    if (has_coarse) {
+      const int cx = std::min(x / 2, cw - 1);
+      lo = lo_c[cx];
+      hi = hi_c[cx];
+      centre = centre_c[cx];
+    }
+    lo = std::max(lo, x - w + 1);
+    hi = std::min(hi, x);
+    if (hi - lo + 1 > config.max_band) {
+      lo = std::clamp(centre - config.max_band / 2, lo, hi - config.max_band + 1);
+      hi = lo + config.max_band - 1;
+    }
+    lo_row[x] = static_cast<std::int16_t>(lo);
+    count_row[x] = static_cast<std::int16_t>(std::max(hi - lo + 1, 0));
   }
 }
 
@@ -142,9 +177,9 @@ void SgmCosts(const CensusCodes& left, const CensusCodes& right, const Plane<std
               const SgmBandConfig& config, int shd_window, SgmScratch& scratch, SgmVolume& v) {
   const int w = v.width, h = v.height, words = left.words, hr = shd_window / 2;
   MirrorCodes(right, v);
-  const PixelCostsFn costs = words == 1   ? PixelCostsFor<1>(shd_window)
-                             : words == 2 ? PixelCostsFor<2>(shd_window)
-                                          : PixelCostsFor<3>(shd_window);
+  const RowCostsFn costs = words == 1   ? RowCostsFor<1>(shd_window)
+                           : words == 2 ? RowCostsFor<2>(shd_window)
+                                        : RowCostsFor<3>(shd_window);
   const int cw = coarse ? coarse->width() : 1;
 #pragma omp parallel num_threads(scratch.threads)
   {
@@ -152,14 +187,14 @@ void SgmCosts(const CensusCodes& left, const CensusCodes& right, const Plane<std
     int* lo_c = reinterpret_cast<int*>(scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread);
     int *hi_c = lo_c + cw, *centre_c = hi_c + cw, *col_min = centre_c + cw, *col_max = col_min + cw;
     int last_cy = -1;
-#pragma omp for schedule(static)
+#pragma omp for schedule(dynamic, 4)
     for (int y = 0; y < h; ++y) {
       if (coarse != nullptr) {
         const int cy = std::min(y / 2, coarse->height() - 1);
-        if (cy != last_cy)
-          coarse_bands(*coarse, config, cy, lo_c, hi_c, centre_c, col_min, col_max);
+        if (cy != last_cy) coarse_bands(*coarse, config, cy, lo_c, hi_c, centre_c, col_min, col_max);
         last_cy = cy;
       }
+      RowBands(config, w, coarse != nullptr, cw, lo_c, hi_c, centre_c, v.lo.row(y), v.count.row(y));
       const std::uint32_t* left_rows[9 * 3];
       const std::uint32_t* mirror_rows[9 * 3];
       for (int j = 0; j < shd_window; ++j) {
@@ -169,25 +204,7 @@ void SgmCosts(const CensusCodes& left, const CensusCodes& right, const Plane<std
           mirror_rows[j * 3 + k] = v.mirrored[k].row(yy);
         }
       }
-      for (int x = 0; x < w; ++x) {
-        int lo = config.dmin, hi = config.dmax, centre = (config.dmin + config.dmax) >> 1;
-        if (coarse != nullptr) {
-          const int cx = std::min(x / 2, cw - 1);
-          lo = lo_c[cx];
-          hi = hi_c[cx];
-          centre = centre_c[cx];
-        }
-        lo = std::max(lo, x - w + 1);
-        hi = std::min(hi, x);
-        if (hi - lo + 1 > config.max_band) {
-          lo = std::clamp(centre - config.max_band / 2, lo, hi - config.max_band + 1);
-          hi = lo + config.max_band - 1;
-        }
-        const int count = std::max(hi - lo + 1, 0);
-        v.lo.at(x, y) = static_cast<std::int16_t>(lo);
-        v.count.at(x, y) = static_cast<std::int16_t>(count);
-        costs(left_rows, mirror_rows, x, w, lo, count, v.stride, v.cost_at(x, y));
-      }
+      costs(left_rows, mirror_rows, w, v.lo.row(y), v.count.row(y), v.stride, v.cost_at(0, y));
     }
   }
 }

@@ -53,35 +53,47 @@ void SelectRightRow(const SgmVolume& v, const SgmSelectConfig& config, int y, st
   std::fill_n(rows, 5 * len, kSgmInf);
   const auto inf = hn::Set(d, kSgmInf);
   const auto lane = hn::Iota(di, 0);
-  for (int pass = 0; pass < 2; ++pass) {
+  // The second pass only serves the uniqueness test (the second best) and sub-pixel (the
+  // neighbours' sums): without them it is skipped, and each stream it does not need.
+  const bool need_second = config.uniqueness_ratio > 0, need_neighbours = config.subpixel;
+  const int passes = need_second || need_neighbours ? 2 : 1;
+  const std::int16_t* lo_row = v.lo.row(y);
+  const std::int16_t* count_row = v.count.row(y);
+  const std::uint16_t* sum_row = v.sum_at(0, y);
+  const int stride = v.stride;
+  for (int pass = 0; pass < passes; ++pass) {
     for (int x_phase = 0; x_phase < kRightPhases; ++x_phase) {
-     for (int x = x_phase; x < w; x += kRightPhases) {
-      const int lo = v.lo.at(x, y), count = v.count.at(x, y);
-      const std::uint16_t* sum = v.sum_at(x, y);
-      for (int k0 = 0; k0 < count; k0 += n) {
-        const int xr0 = x - lo - k0 - (n - 1);  // the right pixel of lane 0 (candidate k0 + n - 1)
-        const auto s = hn::Reverse(d, hn::LoadU(d, sum + k0));
-        const auto dv = hn::Sub(hn::Set(di, static_cast<std::int16_t>(x - xr0)), lane);  // d = x - xr
-        if (pass == 0) {
-          const auto old = hn::LoadU(d, best_sum + xr0);
-          const auto old_d = hn::LoadU(di, best_d + xr0);
-          const auto better = hn::Or(hn::RebindMask(di, hn::Lt(s, old)),
-                                     hn::And(hn::RebindMask(di, hn::Eq(s, old)), hn::Lt(dv, old_d)));
-          hn::StoreU(hn::Min(s, old), d, best_sum + xr0);
-          hn::StoreU(hn::IfThenElse(better, dv, old_d), di, best_d + xr0);
-        } else {
+      for (int x = x_phase; x < w; x += kRightPhases) {
+        const int lo = lo_row[x], count = count_row[x];
+        const std::uint16_t* sum = sum_row + static_cast<std::size_t>(x) * stride;
+        for (int k0 = 0; k0 < count; k0 += n) {
+          const int xr0 = x - lo - k0 - (n - 1);  // the right pixel of lane 0 (candidate k0 + n - 1)
+          const auto s = hn::Reverse(d, hn::LoadU(d, sum + k0));
+          const auto dv = hn::Sub(hn::Set(di, static_cast<std::int16_t>(x - xr0)), lane);  // d = x - xr
+          if (pass == 0) {
+            const auto old = hn::LoadU(d, best_sum + xr0);
+            const auto old_d = hn::LoadU(di, best_d + xr0);
+            const auto better = hn::Or(hn::RebindMask(di, hn::Lt(s, old)),
+                                       hn::And(hn::RebindMask(di, hn::Eq(s, old)), hn::Lt(dv, old_d)));
+            hn::StoreU(hn::Min(s, old), d, best_sum + xr0);
+            hn::StoreU(hn::IfThenElse(better, dv, old_d), di, best_d + xr0);
+            continue;
+          }
           const auto delta = hn::Sub(dv, hn::LoadU(di, best_d + xr0));
-          const auto present = hn::RebindMask(di, hn::Lt(s, inf));
-          const auto below = hn::And(present, hn::Eq(delta, hn::Set(di, -1)));
-          const auto above = hn::And(present, hn::Eq(delta, hn::Set(di, 1)));
-          const auto far = hn::Or(hn::Lt(delta, hn::Set(di, -1)), hn::Gt(delta, hn::Set(di, 1)));
-          hn::StoreU(hn::IfThenElse(hn::RebindMask(d, below), s, hn::LoadU(d, cm1 + xr0)), d, cm1 + xr0);
-          hn::StoreU(hn::IfThenElse(hn::RebindMask(d, above), s, hn::LoadU(d, cp1 + xr0)), d, cp1 + xr0);
-          const auto sec = hn::LoadU(d, second + xr0);
-          hn::StoreU(hn::IfThenElse(hn::RebindMask(d, far), hn::Min(sec, s), sec), d, second + xr0);
+          if (need_neighbours) {
+            const auto present = hn::RebindMask(di, hn::Lt(s, inf));
+            const auto below = hn::And(present, hn::Eq(delta, hn::Set(di, -1)));
+            const auto above = hn::And(present, hn::Eq(delta, hn::Set(di, 1)));
+            hn::StoreU(hn::IfThenElse(hn::RebindMask(d, below), s, hn::LoadU(d, cm1 + xr0)), d, cm1 + xr0);
+            hn::StoreU(hn::IfThenElse(hn::RebindMask(d, above), s, hn::LoadU(d, cp1 + xr0)), d, cp1 + xr0);
+          }
+          if (need_second) {
+            const auto far = hn::Or(hn::Lt(delta, hn::Set(di, -1)), hn::Gt(delta, hn::Set(di, 1)));
+            const auto sec = hn::LoadU(d, second + xr0);
+            hn::StoreU(hn::IfThenElse(hn::RebindMask(d, far), hn::Min(sec, s), sec), d, second + xr0);
+          }
         }
       }
-     }
     }
   }
   for (int x = 0; x < w; ++x) {
