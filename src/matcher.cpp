@@ -10,6 +10,7 @@
 #include <stdexcept>
 #include <utility>
 
+#include "level_plan.hpp"
 #include "stages.hpp"
 #ifdef MCTSTEREO_HAVE_OPENCL
 #include "opencl/pipeline.hpp"
@@ -53,32 +54,14 @@ const StageTable kReferenceStages = MCTSTEREO_STAGE_TABLE(detail::reference);
 const StageTable kCpuStages = MCTSTEREO_STAGE_TABLE(detail::cpu);
 #undef MCTSTEREO_STAGE_TABLE
 
-int log2_exact(int v) {
-  int l = 0;
-  while ((1 << l) < v) ++l;
-  return l;
-}
-
-// Everything one pyramid level holds for both views.
-struct Level {
-  int width = 0, height = 0;
-  int scale_log2 = 0;  // this level is 2^scale_log2 times smaller than the input
-  int dmin = 0, dmax = 0;
-  int shd_window = 5;
-  int radius = 0;  // search radius around the coarser level's priors
-  bool refine = true;
+// Everything one pyramid level holds for both views; its plan (sizes, range, windows, band)
+// comes from plan_levels().
+struct Level : detail::LevelSpec {
   Plane<std::uint8_t> image[2];
   CensusCodes codes[2];
   Plane<std::int16_t> disparity[2], scratch[2];
   detail::SgmVolume sgm;  // band SGM: candidates, costs and sums (storage shared by the levels)
 };
-
-// The band width of a level for SGM: its whole range at the coarsest level, else at most
-// max_band; never more than the candidates a pixel of the level can have (its width).
-int sgm_band_width(const StereoParams& p, int dmin, int dmax, int width, bool coarsest) {
-  const int range = std::min(dmax - dmin + 1, width);
-  return coarsest ? range : std::min(range, p.sgm_max_band);
-}
 
 class Stopwatch {
  public:
@@ -158,59 +141,38 @@ struct Matcher::Impl {
       return;
     }
 
+    const detail::LevelPlan plan = detail::plan_levels(p, w, h);
     // Working-scale reductions of the input: full_gray[v][0] is the input size.
-    const int scale_steps = log2_exact(p.working_scale);
-    int lw = w, lh = h;
-    for (int v = 0; v < 2; ++v) full_gray[v].resize(scale_steps + 1);
-    for (int s = 0; s <= scale_steps; ++s) {
-      for (int v = 0; v < 2; ++v) full_gray[v][s].reset(lw, lh);
-      if (s < scale_steps) lw = (lw + 1) / 2, lh = (lh + 1) / 2;
-    }
-    levels.resize(p.pyramid_levels);
-    int max_range = 1;
-    std::size_t sgm_entries = 0;
-    int max_stride = 16;
-    for (int l = 0; l < p.pyramid_levels; ++l) {
-      Level& L = levels[l];
-      L.width = lw;
-      L.height = lh;
-      L.scale_log2 = scale_steps + l;
-      L.dmin = detail::level_min(p.min_disparity, L.scale_log2);
-      L.dmax = detail::level_max(p.max_disparity(), L.scale_log2);
-      L.shd_window = l == 0 ? p.shd_window : p.coarse_shd_window;
-      L.radius = l == 0 ? p.finest_radius() : p.search_radius;
-      L.refine = l == 0 || p.refine_all_levels;
-      max_range = std::max(max_range, L.dmax - L.dmin + 1);
-      const int views = need_right ? 2 : 1;
+    for (int v = 0; v < 2; ++v)
+      for (const detail::Size2& s : plan.working) full_gray[v].emplace_back(s.width, s.height);
+    const int views = need_right ? 2 : 1;
+    for (const detail::LevelSpec& spec : plan.levels) {
+      Level& L = levels.emplace_back();
+      static_cast<detail::LevelSpec&>(L) = spec;
+      const int lw = L.width, lh = L.height;
       for (int v = 0; v < 2; ++v) {
         // Level 0 of the pyramid is the last working-scale reduction itself.
-        if (l > 0) L.image[v].reset(lw, lh);
-        L.codes[v].words = detail::census_words(p.census_window);
+        if (levels.size() > 1) L.image[v].reset(lw, lh);
+        L.codes[v].words = plan.census_words;
         for (int k = 0; k < L.codes[v].words; ++k) L.codes[v].plane[k].reset(lw, lh, detail::kCodePad);
       }
       for (int v = 0; v < views; ++v) {
         L.disparity[v].reset(lw, lh);
         L.scratch[v].reset(lw, lh);
       }
-      if (p.sgm()) {
-        const int band = sgm_band_width(p, L.dmin, L.dmax, lw, l + 1 == p.pyramid_levels);
-        sgm_entries = std::max(sgm_entries, detail::SgmVolume::entries_for(lw, lh, band));
-        max_stride = std::max(max_stride, detail::SgmVolume::stride_for(band));
-        L.sgm.reset(lw, lh, band, detail::census_words(p.census_window), nullptr, nullptr);
-      }
-      lw = (lw + 1) / 2;
-      lh = (lh + 1) / 2;
+      if (p.sgm()) L.sgm.reset(lw, lh, L.sgm_band, plan.census_words, nullptr, nullptr);
     }
+    const int scale_steps = static_cast<int>(plan.working.size()) - 1;
     if (p.sgm()) {
-      sgm_cost = detail::allocate_aligned<std::uint16_t>(sgm_entries);
-      sgm_sum = detail::allocate_aligned<std::uint16_t>(sgm_entries);
+      sgm_cost = detail::allocate_aligned<std::uint16_t>(plan.sgm_entries);
+      sgm_sum = detail::allocate_aligned<std::uint16_t>(plan.sgm_entries);
       for (Level& L : levels) {
         L.sgm.cost = sgm_cost.get();
         L.sgm.sum = sgm_sum.get();
       }
       sgm_scratch.threads = threads;
       sgm_scratch.bytes_per_thread =
-          (stages->sgm_scratch_bytes(levels[0].width, levels[0].height, max_stride) + 63) / 64 * 64;
+          (stages->sgm_scratch_bytes(levels[0].width, levels[0].height, plan.sgm_max_stride) + 63) / 64 * 64;
       sgm_scratch.data = detail::allocate_aligned<std::uint8_t>(sgm_scratch.bytes_per_thread * threads);
       margin.reset(levels[0].width, levels[0].height);
       confidence_q8.reset(levels[0].width, levels[0].height);
@@ -219,7 +181,7 @@ struct Matcher::Impl {
     const int max_shd = std::max(p.shd_window, p.coarse_shd_window);
     match_scratch.threads = threads;
     match_scratch.bytes_per_thread =
-        (stages->match_scratch_bytes(levels[0].width, max_range, max_shd) + 63) / 64 * 64;
+        (stages->match_scratch_bytes(levels[0].width, plan.max_range, max_shd) + 63) / 64 * 64;
     match_scratch.data = detail::allocate_aligned<std::uint8_t>(match_scratch.bytes_per_thread * threads);
     if (p.speckle_size > 0) {
       speckle_scratch.label.reset(levels[0].width, levels[0].height);
@@ -304,9 +266,8 @@ struct Matcher::Impl {
         stages->lr_check(L.disparity[v], L.disparity[1 - v], v == 0 ? -1 : +1, 16 * params.lr_threshold, L.scratch[v]);
       for (int v = 0; v < kept; ++v) std::swap(L.disparity[v], L.scratch[v]);
     }
-    const int speckle = params.speckle_size >> (2 * L.scale_log2);
-    if (speckle > 1)
-      for (int v = 0; v < kept; ++v) stages->remove_speckles(L.disparity[v], speckle, 16, speckle_scratch);
+    if (L.speckle > 1)
+      for (int v = 0; v < kept; ++v) stages->remove_speckles(L.disparity[v], L.speckle, 16, speckle_scratch);
     // The confidence of the final map: what survived the checks, before the fill guesses.
     if (finest && params.sgm())
       stages->confidence(margin, L.disparity[0], need_right ? &L.disparity[1] : nullptr, params.lr_threshold,
@@ -425,7 +386,7 @@ struct Matcher::Impl {
       for (int v = 0; v < 2; ++v) stages->census_transform(level_image(l, v), census, L.codes[v]);
       slot_ms[kCensus] += clock.lap_ms();
 
-      const bool coarsest = l + 1 == static_cast<int>(levels.size());
+      const bool coarsest = L.coarsest;
       if (params.sgm()) {
         match_sgm(l, coarsest ? nullptr : &levels[l + 1].disparity[0]);
         slot_ms[kMatch] += clock.lap_ms();
@@ -566,41 +527,25 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   const auto map_bytes = [](int w, int h) { return Plane<std::int16_t>::bytes_for(w, h); };
   const bool need_right = params.lr_check || options.compute_right;
   const int views = need_right ? 2 : 1;
-  const int scale_steps = log2_exact(params.working_scale);
-  const int words = detail::census_words(params.census_window);
+  const detail::LevelPlan plan = detail::plan_levels(params, width, height);
+  const int scale_steps = static_cast<int>(plan.working.size()) - 1;
+  const int words = plan.census_words;
   std::size_t total = 0;
-  int lw = width, lh = height;
-  for (int s = 0; s <= scale_steps; ++s) {
-    total += 2 * gray_bytes(lw, lh);
-    if (s < scale_steps) lw = (lw + 1) / 2, lh = (lh + 1) / 2;
+  for (const detail::Size2& s : plan.working) total += 2 * gray_bytes(s.width, s.height);
+  for (const detail::LevelSpec& L : plan.levels) {
+    if (L.scale_log2 > scale_steps) total += 2 * gray_bytes(L.width, L.height);
+    total += 2 * words * Plane<std::uint32_t>::bytes_for(L.width, L.height, detail::kCodePad);
+    total += views * 2 * map_bytes(L.width, L.height);
+    if (params.sgm()) total += detail::SgmVolume::plane_bytes_for(L.width, L.height, L.sgm_band, words);
   }
-  int max_range = 1, w0 = lw, h0 = lh;
-  std::size_t sgm_entries = 0;
-  int max_stride = 16;
-  for (int l = 0; l < params.pyramid_levels; ++l) {
-    if (l > 0) total += 2 * gray_bytes(lw, lh);
-    total += 2 * words * Plane<std::uint32_t>::bytes_for(lw, lh, detail::kCodePad);
-    total += views * 2 * map_bytes(lw, lh);
-    const int ls = scale_steps + l;
-    if (params.sgm()) {
-      const int band = sgm_band_width(params, detail::level_min(params.min_disparity, ls),
-                                      detail::level_max(params.max_disparity(), ls), lw, l + 1 == params.pyramid_levels);
-      total += detail::SgmVolume::plane_bytes_for(lw, lh, band, words);
-      sgm_entries = std::max(sgm_entries, detail::SgmVolume::entries_for(lw, lh, band));
-      max_stride = std::max(max_stride, detail::SgmVolume::stride_for(band));
-    }
-    max_range = std::max(max_range, detail::level_max(params.max_disparity(), ls) -
-                                        detail::level_min(params.min_disparity, ls) + 1);
-    lw = (lw + 1) / 2;
-    lh = (lh + 1) / 2;
-  }
+  const int w0 = plan.finest().width, h0 = plan.finest().height;
   const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
-  total += threads * detail::cpu::match_scratch_bytes(w0, max_range, std::max(params.shd_window, params.coarse_shd_window));
+  total += threads * detail::cpu::match_scratch_bytes(w0, plan.max_range, std::max(params.shd_window, params.coarse_shd_window));
   if (params.speckle_size > 0) total += Plane<std::int32_t>::bytes_for(w0, h0) + static_cast<std::size_t>(w0) * h0 * 4;
   if (params.sgm()) {
     // The cost and sum storage every level shares, the stages' scratch, margins, confidence.
-    total += 2 * sgm_entries * sizeof(std::uint16_t);
-    total += threads * ((detail::cpu::sgm_scratch_bytes(w0, h0, max_stride) + 63) / 64 * 64);
+    total += 2 * plan.sgm_entries * sizeof(std::uint16_t);
+    total += threads * ((detail::cpu::sgm_scratch_bytes(w0, h0, plan.sgm_max_stride) + 63) / 64 * 64);
     total += 2 * Plane<std::uint8_t>::bytes_for(w0, h0) + Plane<float>::bytes_for(width, height);
   }
   const int outputs = options.compute_right ? 2 : 1;

@@ -6,6 +6,8 @@
 // (their kernels created) in the constructor: a frame allocates nothing on the host.
 #include "opencl/pipeline.hpp"
 
+#include "level_plan.hpp"
+
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -18,11 +20,6 @@ namespace mctstereo::detail::opencl {
 
 namespace {
 
-int log2_exact(int v) {
-  int l = 0;
-  while ((1 << l) < v) ++l;
-  return l;
-}
 
 class Stopwatch {
  public:
@@ -100,15 +97,9 @@ std::vector<OpenclDevice> describe_devices() {
   return out;
 }
 
-// Everything one pyramid level holds for both views, as Matcher::Impl's Level.
-struct Pipeline::Level {
-  int width = 0, height = 0;
-  int scale_log2 = 0;  // this level is 2^scale_log2 times smaller than the input
-  int dmin = 0, dmax = 0;
-  int shd_window = 5;
-  int radius = 0;  // search radius around the coarser level's priors
-  bool refine = true;
-  int speckle = 0;  // speckle removal's region size at this level; on only when > 1
+// Everything one pyramid level holds for both views, as Matcher::Impl's Level; its plan
+// (sizes, range, windows, band) comes from plan_levels().
+struct Pipeline::Level : LevelSpec {
   DevicePlane<std::uint8_t> image[2];
   DeviceCodes codes[2];
   DevicePlane<std::int16_t> disparity[2], scratch[2];
@@ -234,30 +225,22 @@ void Pipeline::allocate() {
     input_[v].height = height_;
     device_bytes_ += bytes;
   }
-  const int scale_steps = log2_exact(p.working_scale);
-  int lw = width_, lh = height_;
-  for (int v = 0; v < 2; ++v) full_gray_[v].resize(scale_steps + 1);
-  for (int s = 0; s <= scale_steps; ++s) {
-    for (int v = 0; v < 2; ++v) plane(full_gray_[v][s], lw, lh);
-    if (s < scale_steps) lw = (lw + 1) / 2, lh = (lh + 1) / 2;
+  const LevelPlan plan = plan_levels(p, width_, height_);
+  const int scale_steps = static_cast<int>(plan.working.size()) - 1;
+  for (int v = 0; v < 2; ++v) {
+    full_gray_[v].resize(plan.working.size());
+    for (std::size_t s = 0; s < plan.working.size(); ++s) plane(full_gray_[v][s], plan.working[s].width, plan.working[s].height);
   }
-  levels_.resize(p.pyramid_levels);
+  levels_.resize(plan.levels.size());
   const int views = need_right_ ? 2 : 1;
-  for (int l = 0; l < p.pyramid_levels; ++l) {
+  for (std::size_t l = 0; l < plan.levels.size(); ++l) {
     Level& L = levels_[l];
-    L.width = lw;
-    L.height = lh;
-    L.scale_log2 = scale_steps + l;
-    L.dmin = level_min(p.min_disparity, L.scale_log2);
-    L.dmax = level_max(p.max_disparity(), L.scale_log2);
-    L.shd_window = l == 0 ? p.shd_window : p.coarse_shd_window;
-    L.radius = l == 0 ? p.finest_radius() : p.search_radius;
-    L.refine = l == 0 || p.refine_all_levels;
-    L.speckle = p.speckle_size >> (2 * L.scale_log2);
+    static_cast<LevelSpec&>(L) = plan.levels[l];
+    const int lw = L.width, lh = L.height;
     for (int v = 0; v < 2; ++v) {
       // Level 0 of the pyramid is the last working-scale reduction itself.
       if (l > 0) plane(L.image[v], lw, lh);
-      L.codes[v].words = census_words(p.census_window);
+      L.codes[v].words = plan.census_words;
       for (int k = 0; k < L.codes[v].words; ++k) plane(L.codes[v].plane[k], lw, lh);
     }
     for (int v = 0; v < views; ++v) {
@@ -265,9 +248,7 @@ void Pipeline::allocate() {
       plane(L.scratch[v], lw, lh);
     }
     if (L.refine && L.speckle > 1) L.host.reset(lw, lh);
-    if (p.sgm()) allocate_sgm_planes(L, l + 1 == p.pyramid_levels);
-    lw = (lw + 1) / 2;
-    lh = (lh + 1) / 2;
+    if (p.sgm()) allocate_sgm_planes(L);
   }
   if (p.sgm()) allocate_sgm_storage();
   if (p.speckle_size > 0) {
@@ -282,14 +263,12 @@ void Pipeline::allocate() {
   plane(out_float_, width_, height_);
 }
 
-// The band width of a level for SGM (as the Matcher's): the whole range at the coarsest level,
-// else at most max_band; never more than the candidates a pixel can have (the level's width).
-void Pipeline::allocate_sgm_planes(Level& L, bool coarsest) {
-  const int range = std::min(L.dmax - L.dmin + 1, L.width);
+// A level's band SGM planes; the band comes from the plan.
+void Pipeline::allocate_sgm_planes(Level& L) {
   L.sgm.width = L.width;
   L.sgm.height = L.height;
-  L.sgm.band = coarsest ? range : std::min(range, params_.sgm_max_band);
-  L.sgm.stride = SgmVolume::stride_for(L.sgm.band);
+  L.sgm.band = L.sgm_band;
+  L.sgm.stride = L.sgm_stride;
   plane(L.sgm.lo, L.width, L.height);
   plane(L.sgm.count, L.width, L.height);
 }

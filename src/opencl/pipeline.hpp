@@ -54,7 +54,7 @@ class Pipeline {
   void allocate();
   const DevicePlane<std::uint8_t>& level_image(int l, int v) const;
   void upload_input(const ImageView& image, int view);
-  void allocate_sgm_planes(Level& L, bool coarsest);
+  void allocate_sgm_planes(Level& L);
   void allocate_sgm_storage();
   void run_levels();
   void match_sgm(int l, const DevicePlane<std::int16_t>* prior);

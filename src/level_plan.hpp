@@ -1,0 +1,95 @@
+// The plan of a frame's levels: their sizes, ranges, windows, bands and the sizes of the buffers
+// they share, made once from the parameters. The host driver (src/matcher.cpp), the OpenCL
+// pipeline (src/opencl/pipeline.cpp) and estimate_memory() all build their levels from it, so
+// a stage or a level rule is added in one place.
+#pragma once
+
+#include <algorithm>
+#include <cstddef>
+#include <vector>
+
+#include "mctstereo/params.hpp"
+#include "stages.hpp"
+
+namespace mctstereo::detail {
+
+/// 2^l >= v: the working scale's reductions.
+inline int log2_exact(int v) {
+  int l = 0;
+  while ((1 << l) < v) ++l;
+  return l;
+}
+
+struct Size2 {
+  int width = 0, height = 0;
+};
+
+/// One pyramid level.
+struct LevelSpec {
+  int width = 0, height = 0;
+  int scale_log2 = 0;  ///< this level is 2^scale_log2 times smaller than the input
+  int dmin = 0, dmax = 0;
+  int shd_window = 5;
+  int radius = 0;         ///< search radius around the coarser level's priors
+  bool refine = true;     ///< median, LR check, speckles, fill at this level
+  bool coarsest = false;  ///< no prior: the whole range
+  int speckle = 0;        ///< speckle removal's region size here; on only when > 1
+  int sgm_band = 0;       ///< band SGM: most candidates of a pixel (0 without SGM)
+  int sgm_stride = 0;     ///< band SGM: entries per pixel slot
+  int range() const { return dmax - dmin + 1; }
+};
+
+struct LevelPlan {
+  std::vector<Size2> working;     ///< the input size, then each working-scale reduction
+  std::vector<LevelSpec> levels;  ///< levels[0] is the finest (the working scale)
+  int max_range = 1;              ///< most disparities of any level
+  int census_words = 1;
+  std::size_t sgm_entries = 0;  ///< band SGM: cost (and sum) entries of the largest volume
+  int sgm_max_stride = 16;      ///< band SGM: the widest slot
+  const LevelSpec& finest() const { return levels.front(); }
+};
+
+/// The band width of a level for SGM: its whole range at the coarsest level, else at most
+/// max_band; never more than the candidates a pixel of the level can have (its width).
+inline int sgm_band_width(const StereoParams& p, int dmin, int dmax, int width, bool coarsest) {
+  const int range = std::min(dmax - dmin + 1, width);
+  return coarsest ? range : std::min(range, p.sgm_max_band);
+}
+
+/// The plan of a width x height frame with valid parameters p.
+inline LevelPlan plan_levels(const StereoParams& p, int width, int height) {
+  LevelPlan plan;
+  plan.census_words = census_words(p.census_window);
+  const int scale_steps = log2_exact(p.working_scale);
+  int lw = width, lh = height;
+  for (int s = 0; s <= scale_steps; ++s) {
+    plan.working.push_back({lw, lh});
+    if (s < scale_steps) lw = (lw + 1) / 2, lh = (lh + 1) / 2;
+  }
+  for (int l = 0; l < p.pyramid_levels; ++l) {
+    LevelSpec L;
+    L.width = lw;
+    L.height = lh;
+    L.scale_log2 = scale_steps + l;
+    L.dmin = level_min(p.min_disparity, L.scale_log2);
+    L.dmax = level_max(p.max_disparity(), L.scale_log2);
+    L.shd_window = l == 0 ? p.shd_window : p.coarse_shd_window;
+    L.radius = l == 0 ? p.finest_radius() : p.search_radius;
+    L.refine = l == 0 || p.refine_all_levels;
+    L.coarsest = l + 1 == p.pyramid_levels;
+    L.speckle = p.speckle_size >> (2 * L.scale_log2);
+    if (p.sgm()) {
+      L.sgm_band = sgm_band_width(p, L.dmin, L.dmax, lw, L.coarsest);
+      L.sgm_stride = SgmVolume::stride_for(L.sgm_band);
+      plan.sgm_entries = std::max(plan.sgm_entries, SgmVolume::entries_for(lw, lh, L.sgm_band));
+      plan.sgm_max_stride = std::max(plan.sgm_max_stride, L.sgm_stride);
+    }
+    plan.max_range = std::max(plan.max_range, L.range());
+    plan.levels.push_back(L);
+    lw = (lw + 1) / 2;
+    lh = (lh + 1) / 2;
+  }
+  return plan;
+}
+
+}  // namespace mctstereo::detail
