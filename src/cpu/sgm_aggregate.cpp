@@ -36,11 +36,20 @@ namespace mctstereo::detail::cpu {
 // on 32-byte boundaries (the buffers are 64-byte aligned), and slack.
 inline int path_buffer_pad(int stride) { return stride + 16; }
 inline int path_buffer_entries(int stride) { return stride + 2 * path_buffer_pad(stride) + 32; }
-// Lines a horizontal path (rows) and a vertical path (columns) walk together. Columns take
-// more: each row of a column block is a separate run of memory, and longer runs stream better.
+// Lines a horizontal path (rows) and a vertical path (columns) walk together, at most. Columns
+// take more: each row of a column block is a separate run of memory, and longer runs stream
+// better. A block is one thread's work from start to end, so small levels take smaller blocks
+// (block_lines()) to give every thread several.
 inline constexpr int kRowBlock = 16;
 inline constexpr int kColumnBlock = 32;
 inline constexpr int kMaxBlock = std::max(kRowBlock, kColumnBlock);
+
+// Lines per block: the most, halved (down to 4) until the lines make 6 blocks per thread.
+inline int block_lines(int most, int lines, int threads) {
+  int b = most;
+  while (b > 4 && (lines + b - 1) / b < 6 * threads) b /= 2;
+  return b;
+}
 
 // Per thread: two path buffers per line of a block for sgm_aggregate, five padded u16 rows
 // for sgm_select's right view, or five int rows of the level's width for sgm_costs' coarse bands.
@@ -169,14 +178,14 @@ void PathLine(const Plane<std::uint8_t>& gray, const PathConstants& c, int x, in
     PathStep<false, kVecs>(row_view(gray, v, y), x, c, st);
 }
 
-// A horizontal path over kRowBlock rows at once, column after column. A step depends on the one
+// A horizontal path over a block of rows at once, column after column. A step depends on the one
 // before through m(q) (a reduction over the lanes), so one line alone is latency-bound;
 // interleaving independent lines fills that time.
 template <bool kFirst, int kVecs>
-void PathRows(const Plane<std::uint8_t>& gray, const PathConstants& c, int y0, int dx, std::uint16_t* buffers,
-              SgmVolume& v) {
+void PathRows(const Plane<std::uint8_t>& gray, const PathConstants& c, int y0, int block, int dx,
+              std::uint16_t* buffers, SgmVolume& v) {
   const int entries = path_buffer_entries(v.stride);
-  const int rows = std::min(y0 + kRowBlock, v.height) - y0;
+  const int rows = std::min(y0 + block, v.height) - y0;
   PathState st[kRowBlock];
   RowView view[kRowBlock];
   for (int j = 0; j < rows; ++j) {
@@ -189,16 +198,16 @@ void PathRows(const Plane<std::uint8_t>& gray, const PathConstants& c, int y0, i
   }
 }
 
-// A vertical path over kColumnBlock columns at once, row after row: the columns' values stay in
+// A vertical path over a block of columns at once, row after row: the columns' values stay in
 // their own buffers, and the volume is read along rows (one column at a time would jump a whole
 // row of slots per step, a cache and TLB miss each: measured 8x slower at 640 x 480). Each row
 // of a block is a short run in a new page, where the hardware prefetchers do not follow: the
 // block's slots a few rows ahead are prefetched.
 template <int kVecs>
-void PathColumns(const Plane<std::uint8_t>& gray, const PathConstants& c, int x0, int dy, std::uint16_t* buffers,
-                 SgmVolume& v) {
+void PathColumns(const Plane<std::uint8_t>& gray, const PathConstants& c, int x0, int block, int dy,
+                 std::uint16_t* buffers, SgmVolume& v) {
   const int entries = path_buffer_entries(v.stride);
-  const int x1 = std::min(x0 + kColumnBlock, v.width);
+  const int x1 = std::min(x0 + block, v.width);
   constexpr int kAhead = 4;
   PathState st[kColumnBlock];
   for (int x = x0; x < x1; ++x) st[x - x0] = fresh_state(buffers + 2 * entries * (x - x0), entries);
@@ -222,8 +231,10 @@ void PathColumns(const Plane<std::uint8_t>& gray, const PathConstants& c, int x0
 template <int kVecs>
 void AggregateAll(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, const PathConstants& c,
                   SgmScratch& scratch, SgmVolume& v) {
-  const int column_blocks = (v.width + kColumnBlock - 1) / kColumnBlock;
-  const int row_blocks = (v.height + kRowBlock - 1) / kRowBlock;
+  const int row_block = block_lines(kRowBlock, v.height, scratch.threads);
+  const int column_block = block_lines(kColumnBlock, v.width, scratch.threads);
+  const int row_blocks = (v.height + row_block - 1) / row_block;
+  const int column_blocks = (v.width + column_block - 1) / column_block;
 #pragma omp parallel num_threads(scratch.threads)
   {
     auto* buffers = reinterpret_cast<std::uint16_t*>(scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread);
@@ -233,13 +244,13 @@ void AggregateAll(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, 
     // the volume from memory once instead of twice.
 #pragma omp for schedule(dynamic, 1)
     for (int b = 0; b < row_blocks; ++b) {
-      PathRows<true, kVecs>(gray, c, b * kRowBlock, +1, buffers, v);
-      PathRows<false, kVecs>(gray, c, b * kRowBlock, -1, buffers, v);
+      PathRows<true, kVecs>(gray, c, b * row_block, row_block, +1, buffers, v);
+      PathRows<false, kVecs>(gray, c, b * row_block, row_block, -1, buffers, v);
     }
 #pragma omp for schedule(dynamic, 1)
     for (int b = 0; b < column_blocks; ++b) {
-      PathColumns<kVecs>(gray, c, b * kColumnBlock, +1, buffers, v);
-      PathColumns<kVecs>(gray, c, b * kColumnBlock, -1, buffers, v);
+      PathColumns<kVecs>(gray, c, b * column_block, column_block, +1, buffers, v);
+      PathColumns<kVecs>(gray, c, b * column_block, column_block, -1, buffers, v);
     }
     // The diagonals (8 paths), line by line.
     for (int r = 4; r < config.paths; ++r) {
