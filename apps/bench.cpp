@@ -9,7 +9,8 @@
 //
 // The JSON report (--json), an object:
 //   "settings": {
-//     "cpu_model", "cores_online", "simd_target" (of the cpu backend; "scalar" when only the
+//     "cpu_model", "cores_online", "load_threads" (--load), "gomp_spincount" and
+//     "omp_wait_policy" (the environment's, "" when unset), "simd_target" (of the cpu backend; "scalar" when only the
 //     reference backend ran), "openmp_max_threads" (threads of --threads 0), "compiler",
 //     "build_type", "date" (UTC, ISO 8601), "mctstereo_version", "opencv_version",
 //     "backend", "threads_requested", "threads", "opencv_threads": the first --backend and
@@ -59,6 +60,7 @@
 #include <cmath>
 #include <cerrno>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <filesystem>
@@ -66,9 +68,11 @@
 #include <functional>
 #include <iostream>
 #include <limits>
+#include <optional>
 #include <set>
 #include <sstream>
 
+#include "cpu_load.hpp"
 #include "errors.hpp"
 #include "io.hpp"
 #include "json.hpp"
@@ -109,6 +113,8 @@ are the kernels' device times (profiling events) with the host's upload, downloa
 Memory: a fresh process per size, range and preset builds the matcher (cpu backend unless only
 reference is timed), matches one frame, and reports its peak resident memory over what it held just
 before, next to estimate_memory().
+--load N keeps N threads of another process busy (integer arithmetic) while every method is timed,
+as on a robot or AR device whose cores run other work too.
 --sizes thesis = 320x240,640x480,1024x768,1280x720,2048x1536,3840x2160.
 )";
 
@@ -500,7 +506,12 @@ BenchCommand::BenchCommand(CLI::App& parent)
   app.add_option("--data", data_, "folder of the sample pair imL.png, imR.png (or a data folder with tsukuba/)");
   app.add_option("--image-left", image_left_, "left image to time on, instead of the sample pair");
   app.add_option("--image-right", image_right_, "right image to time on, instead of the sample pair");
+  app.add_option("--load", load_,
+                 "busy threads of another process during the timing (0 = none): timings on a loaded CPU")
+      ->check(CLI::Range(0, 4096))
+      ->capture_default_str();
   app.add_option("--memory-probe", memory_probe_)->group("");  // internal: see run_memory_probe
+  app.add_option("--load-probe", load_probe_)->group("");      // internal: see run_load_probe
 }
 
 void BenchCommand::run() const {
@@ -508,6 +519,7 @@ void BenchCommand::run() const {
     run_memory_probe(memory_probe_);
     return;
   }
+  if (load_probe_ > 0) run_load_probe(load_probe_);
   const std::vector<FrameSize> sizes = parse_sizes(sizes_);
   const std::vector<int> disparity_counts = parse_counts("--num-disparities", num_disparities_, 1, 2048);
   const std::vector<int> thread_settings = parse_counts("--threads", threads_, 0, 4096);
@@ -568,6 +580,11 @@ void BenchCommand::run() const {
   if (!opencl_device.empty()) std::printf("OpenCL    %s\n", opencl_device.c_str());
   std::printf("versions  mctstereo %s, OpenCV %s, %s, build %s\n", MCTSTEREO_VERSION, CV_VERSION,
               compiler_version().c_str(), build_type().c_str());
+  const char* spin_env = std::getenv("GOMP_SPINCOUNT");
+  const char* policy_env = std::getenv("OMP_WAIT_POLICY");
+  std::printf("waiting   OpenMP threads wait with GOMP_SPINCOUNT=%s, OMP_WAIT_POLICY=%s\n", spin_env ? spin_env : "(unset)",
+              policy_env ? policy_env : "(unset)");
+  if (load_ > 0) std::printf("load      %d busy threads in another process during the timing\n", load_);
   std::printf("date      %s\n\n", utc_date().c_str());
 
   // Progress steps: per (size, range) the peers and cpu presets per thread setting, the reference
@@ -618,6 +635,9 @@ void BenchCommand::run() const {
   set_opencv_threads(thread_settings.front());
   const int first_opencv_threads = cv::getNumThreads();
 
+  // The load runs while every method is timed (the peers as well), and stops before the memory
+  // probes.
+  std::optional<CpuLoad> load(std::in_place, load_);
   for (const FrameSize& size : sizes) {
     cv::Mat left, right;
     cv::resize(left_source, left, cv::Size(size.width, size.height), 0, 0, cv::INTER_LINEAR);
@@ -704,6 +724,8 @@ void BenchCommand::run() const {
       }
     }
   }
+
+  load.reset();
 
   // Stage medians, tables of their own so that the one above stays within 120 columns: one per
   // list of stages (the host backends share one; opencl times its kernels).
@@ -802,6 +824,11 @@ void BenchCommand::run() const {
   Json settings_json = Json::object();
   settings_json.set("cpu_model", settings.cpu);
   settings_json.set("cores_online", settings.cores_online);
+  settings_json.set("load_threads", load_);
+  const char* spin = std::getenv("GOMP_SPINCOUNT");
+  const char* policy = std::getenv("OMP_WAIT_POLICY");
+  settings_json.set("gomp_spincount", spin ? spin : "");
+  settings_json.set("omp_wait_policy", policy ? policy : "");
   settings_json.set("simd_target", simd_target);
   settings_json.set("backend", to_string(backends.front()));
   settings_json.set("threads_requested", thread_settings.front());

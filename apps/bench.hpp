@@ -35,7 +35,9 @@ class BenchCommand {
   double min_time_s_ = 0.5;
   std::string json_, data_, image_left_, image_right_;
   // Hidden: measure one matcher's memory in this fresh process and print it (see bench.cpp).
+  int load_ = 0;
   std::string memory_probe_;
+  int load_probe_ = 0;
 };
 
 }  // namespace mctstereo::app

@@ -3,6 +3,9 @@
 #include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
 
+#include <unistd.h>
+
+#include <cstdlib>
 #include <iostream>
 #include <new>
 #include <string_view>
@@ -26,10 +29,23 @@ int fail(int status, const std::string& message) {
   return status;
 }
 
+// libgomp's threads spin up to 300,000 times at every barrier before they sleep. On a loaded CPU
+// that spinning eats the time slices of the team-mate they wait for: with 2 threads of another
+// process busy on this 2-core machine, a realtime frame at 640 x 480 took 235 ms with 2 threads
+// against 15 ms with 1 (`bench --load 2`). A spin of 10,000 keeps the unloaded speed and ends the
+// collapse (docs/RESULTS.md). libgomp reads GOMP_SPINCOUNT once, as it loads, so the program sets
+// it and starts itself again; a setting of the user's own (GOMP_SPINCOUNT, OMP_WAIT_POLICY) stays.
+void restart_with_short_openmp_spin(char** argv) {
+  if (std::getenv("GOMP_SPINCOUNT") != nullptr || std::getenv("OMP_WAIT_POLICY") != nullptr) return;
+  if (setenv("GOMP_SPINCOUNT", "10000", 0) != 0) return;
+  execv("/proc/self/exe", argv);  // returns only when it fails: then run on with the default spin
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace mctstereo::app;
+  restart_with_short_openmp_spin(argv);
   CLI::App app{"mctstereo: dense stereo matching on the (modified) census transform, coarse to fine."};
   app.name("mctstereo");
   app.require_subcommand(1);

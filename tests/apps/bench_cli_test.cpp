@@ -165,6 +165,35 @@ class BenchCli : public mctstereo::test::FolderTest {
 
 const std::vector<std::string> kStages = {"gray", "pyramid", "census", "match", "refine", "output", "frame"};
 
+TEST_F(BenchCli, LoadAndTheOpenmpWaitAreReported) {
+  // Without a setting of the user's, the program runs with a short OpenMP spin; a user's setting
+  // stays. --load starts its busy process and reports it.
+  const auto run = [&](const std::string& env, const std::string& args) {
+    const std::string command = "cd " + shell_quoted(folder_.string()) + " && env -u GOMP_SPINCOUNT -u OMP_WAIT_POLICY " +
+                                env + " " + shell_quoted(kProgram.string()) + " bench --sizes 64x48 --presets realtime " +
+                                "--num-disparities 16 --frames 1 --warmup 0 --min-time 0 --json b.json " + args +
+                                " --data " + shell_quoted((kData / "tsukuba").string()) + " 2>stderr.txt";
+    const Result r = run_shell(command);
+    EXPECT_EQ(r.status, 0) << command << "\n" << r.output << stderr_text();
+    return read_json(folder_ / "b.json")["settings"];
+  };
+  JsonValue settings = run("", "--load 2");
+  EXPECT_EQ(settings["gomp_spincount"].text, "10000");
+  EXPECT_EQ(settings["omp_wait_policy"].text, "");
+  EXPECT_EQ(settings["load_threads"].number, 2);
+  settings = run("GOMP_SPINCOUNT=500", "");
+  EXPECT_EQ(settings["gomp_spincount"].text, "500");
+  EXPECT_EQ(settings["load_threads"].number, 0);
+  settings = run("OMP_WAIT_POLICY=passive", "");
+  EXPECT_EQ(settings["gomp_spincount"].text, "");
+  EXPECT_EQ(settings["omp_wait_policy"].text, "passive");
+  // The load process ends with the timing: none is left behind.
+  EXPECT_NE(run_shell("pgrep -f -- '--load-prob[e]' >/dev/null").status, 0);
+  fs::remove(folder_ / "b.json");
+  expect_usage_error("--load -1 --json b.json", "--load: ");
+  expect_usage_error("--load 5000 --json b.json", "--load: ");
+}
+
 TEST_F(BenchCli, ListsGiveOneRecordPerCombination) {
   const Result r = bench(
       "--sizes 96x64,128x96 --num-disparities 16,32 --threads 1,2 --backend cpu,reference --presets realtime "
