@@ -10,6 +10,7 @@ Inputs (in --results, default docs/results):
   bench_640x480.json        mctstereo bench at one size, every preset (the headline ratios)
   bench_thesis.json         mctstereo bench over the thesis sizes, ranges and thread counts
   bench_backends.json       mctstereo bench with --backend reference,cpu
+  bench_loaded.json         mctstereo bench with --load 2 and --threads 1,2
   bench_opencl.json         mctstereo bench with --backend cpu,opencl over the thesis sizes
 and, optionally, the disparity previews of `eval --save` (in --previews, default
 build/results/previews) with the scenes' own images and ground truth (the paths in the eval JSON,
@@ -52,9 +53,10 @@ BENCH_HEADLINE = "bench_640x480.json"
 BENCH_THESIS = "bench_thesis.json"
 BENCH_BACKENDS = "bench_backends.json"
 BENCH_OPENCL = "bench_opencl.json"
+BENCH_LOADED = "bench_loaded.json"
 # The step of scripts/measure_results.sh that writes each file, for the error message.
 INPUT_STEPS = {EVAL_2003: 1, EVAL_2005: 2, EVAL_RADIOMETRIC: 3, BENCH_HEADLINE: 4, BENCH_THESIS: 5, BENCH_BACKENDS: 6,
-               BENCH_OPENCL: 7}
+               BENCH_OPENCL: 7, BENCH_LOADED: 8}
 
 THESIS_VARIANTS = [("mct-full", "MCT-full"), ("mr-mct-full", "MR-MCT-full"), ("mr-mct-5x5", "MR-MCT-5x5")]
 SCENE_ORDER = ["tsukuba", "venus", "teddy", "cones", "aloe", "art"]
@@ -291,6 +293,7 @@ class BenchRun:
         self.presets = [n.value for n in s.array("presets")]
         self.flags = {k: s.num(k) for k in ["warmup_frames", "min_frames", "min_time_s"]}
         self.images = (s.text("left_image"), s.text("right_image"))
+        self.load_threads = s.whole("load_threads") if s.has("load_threads") else 0
         self.records = []
         for r in doc.array("records"):
             rec = {"method": r.text("method"), "kind": r.text("kind"), "width": r.whole("width"),
@@ -342,7 +345,10 @@ class BenchRun:
                  "--threads " + ",".join(str(t) for t in self.thread_settings),
                  "--backend " + ",".join(self.backends), "--presets " + ",".join(self.presets),
                  f"--frames {number(self.flags['min_frames'])}", f"--warmup {number(self.flags['warmup_frames'])}",
-                 f"--min-time {number(self.flags['min_time_s'])}", f"--json docs/results/{file_name}"]
+                 f"--min-time {number(self.flags['min_time_s'])}"]
+        if self.load_threads > 0:
+            parts.append(f"--load {self.load_threads}")
+        parts.append(f"--json docs/results/{file_name}")
         return " ".join(parts)
 
 
@@ -1284,6 +1290,35 @@ def speed_backends(report, bench, file_name):
         report.add(f"[{file_name}]({{results}}/{file_name}) holds no pair of reference and cpu records.")
 
 
+def speed_loaded(report, bench, file_name, load_threads):
+    report.add("### On a loaded CPU")
+    report.add(f"The same methods while {load_threads} threads of another process keep the cores busy (`--load "
+               f"{load_threads}`), as on a robot or an AR device whose cores run other work: each method with 1 and "
+               "with 2 threads in the same run. OpenMP's threads wait at a barrier with a short spin "
+               "(`GOMP_SPINCOUNT=10000`, which the program sets unless the user has set one): with libgomp's "
+               "default spin, 2 threads fall far behind 1 here, because the waiting thread spins away the time "
+               "slices of the thread it waits for.")
+    report.add(code(bench.command(file_name)))
+    report.add(machine_line(bench.settings, bench.file, with_threads=False))
+    if len(bench.thread_settings) < 2:
+        report.add(f"[{file_name}]({{results}}/{file_name}) has one thread setting: nothing to compare.")
+        return
+    t1, t2 = bench.thread_settings[0], bench.thread_settings[1]
+    rows = []
+    for size in bench.sizes:
+        for d in bench.disparities:
+            for m in bench.methods():
+                a = bench.find(m, size, d, t1)
+                b = bench.find(m, size, d, t2)
+                if a is None or b is None:
+                    continue
+                rows.append([size_text(size), d, f"`{m}`" if a["backend"] else m, ms(a["median_ms"]),
+                             ms(b["median_ms"]), f"{a['median_ms'] / b['median_ms']:.2f}",
+                             ratio(b["ratio"])])
+    report.add(table(["size", "disparities", "method", f"{t1} thread ms", f"{t2} threads ms",
+                      f"{t2} threads speed-up", f"x BM ({t2} threads)"], rows, ["---", "---:", "---"] + ["---:"] * 4))
+
+
 def speed_opencl(report, bench, file_name):
     report.add("### The opencl backend")
     device = bench.opencl_device or "(device not recorded)"
@@ -1439,11 +1474,13 @@ def build(results_dir, images_dir, output, previews_dir):
     thesis = BenchRun(docs[BENCH_THESIS])
     backends = BenchRun(docs[BENCH_BACKENDS])
     opencl = BenchRun(docs[BENCH_OPENCL])
+    loaded = BenchRun(docs[BENCH_LOADED])
+    loaded_threads = loaded.load_threads
 
     report = Report(results_dir, images_dir, output, previews_dir)
     runs = [(EVAL_2003, ev2003.settings), (EVAL_2005, ev2005.settings), (EVAL_RADIOMETRIC, radio.settings),
             (BENCH_HEADLINE, headline.settings), (BENCH_THESIS, thesis.settings), (BENCH_BACKENDS, backends.settings),
-            (BENCH_OPENCL, opencl.settings)]
+            (BENCH_OPENCL, opencl.settings), (BENCH_LOADED, loaded.settings)]
     header(report, runs)
     quality_2003(report, ev2003)
     quality_2005(report, ev2005)
@@ -1453,12 +1490,13 @@ def build(results_dir, images_dir, output, previews_dir):
     speed_stages(report, thesis, BENCH_THESIS, d, t)
     speed_backends(report, backends, BENCH_BACKENDS)
     speed_opencl(report, opencl, BENCH_OPENCL)
+    speed_loaded(report, loaded, BENCH_LOADED, loaded_threads)
     memory_section(report, thesis, BENCH_THESIS)
     previews_section(report, [(ev2003, "middlebury2003", "Middlebury 2003"),
                               (ev2005, "middlebury2005", "Middlebury 2005/2006")])
     losses_section(report)
     skipped = [(f, x) for f, run in [(BENCH_HEADLINE, headline), (BENCH_THESIS, thesis), (BENCH_BACKENDS, backends),
-                                     (BENCH_OPENCL, opencl)]
+                                     (BENCH_OPENCL, opencl), (BENCH_LOADED, loaded)]
                for x in run.skipped]
     if skipped:
         report.add("Not measured (from the files' `skipped`): " + "; ".join(

@@ -77,4 +77,8 @@ run "$binary" bench --data data --sizes 320x240,640x480 --num-disparities 64 --t
 run "$binary" bench --data data --sizes thesis --num-disparities 64 --threads 2 --backend cpu,opencl \
   --presets realtime,quality --json "$results/bench_opencl.json"
 
+# 8: a loaded CPU: two busy threads of another process while every method is timed.
+run "$binary" bench --data data --sizes 640x480 --num-disparities 64 --threads 1,2 --load 2 \
+  --presets realtime,balanced,quality --json "$results/bench_loaded.json"
+
 run "$python" scripts/make_results.py --results "$results" --previews "$previews"
