@@ -274,6 +274,12 @@ inline std::int16_t sgm_winner_q4(int best, int best_sum, int second, int cm1, i
   return static_cast<std::int16_t>(q4);
 }
 
+/// The agreement term of the confidence: max(0, den - |v - r|) with den = 16 (threshold + 1), v
+/// the pixel's map value, r the right map's value at x - ((v + 8) >> 4) (kInvalid: none).
+inline int confidence_agreement(int v, int r, int den) {
+  return r == kInvalid ? 0 : std::max(0, den - (v > r ? v - r : r - v));
+}
+
 /// Confidence of one pixel: see the stage confidence().
 inline std::uint8_t confidence_at(const Plane<std::uint8_t>& margin, const Plane<std::int16_t>& checked,
                                   const Plane<std::int16_t>* right, int threshold, int x, int y) {
@@ -283,8 +289,7 @@ inline std::uint8_t confidence_at(const Plane<std::uint8_t>& margin, const Plane
   int num = den;
   if (right != nullptr) {
     const int xr = x - ((v + 8) >> 4);
-    const int r = xr >= 0 && xr < checked.width() ? right->at(xr, y) : kInvalid;
-    num = r == kInvalid ? 0 : std::max(0, den - (v > r ? v - r : r - v));
+    num = confidence_agreement(v, xr >= 0 && xr < checked.width() ? right->at(xr, y) : kInvalid, den);
   }
   return static_cast<std::uint8_t>(margin.at(x, y) * num / den);
 }
