@@ -40,6 +40,8 @@ struct StageTable {
   decltype(&detail::reference::sgm_scratch_bytes) sgm_scratch_bytes;
   decltype(&detail::reference::sgm_select) sgm_select;
   decltype(&detail::reference::confidence) confidence;
+  decltype(&detail::reference::split_channels) split_channels;
+  decltype(&detail::reference::weighted_median) weighted_median;
 };
 
 #define MCTSTEREO_STAGE_TABLE(ns)                                                                \
@@ -47,7 +49,7 @@ struct StageTable {
     &ns::to_gray, &ns::pyramid_down, &ns::census_transform, &ns::match,                          \
         &ns::match_scratch_bytes, &ns::median_filter, &ns::lr_check, &ns::remove_speckles,       \
         &ns::fill_invalid, &ns::upscale, &ns::sgm_costs, &ns::sgm_aggregate, &ns::sgm_scratch_bytes, \
-        &ns::sgm_select, &ns::confidence                                                         \
+        &ns::sgm_select, &ns::confidence, &ns::split_channels, &ns::weighted_median              \
   }
 const StageTable kReferenceStages = MCTSTEREO_STAGE_TABLE(detail::reference);
 const StageTable kCpuStages = MCTSTEREO_STAGE_TABLE(detail::cpu);
@@ -119,6 +121,12 @@ struct Matcher::Impl {
 
   std::vector<Plane<std::uint8_t>> full_gray[2];  // input size, then each working-scale reduction
   std::vector<Level> levels;                      // levels[0] is the finest (working scale)
+  // Colour-weighted median: the left view's channels at the input size, then each working-scale
+  // reduction (colour input; gray input uses full_gray), its weight table, and what the last frame
+  // gave it.
+  std::vector<std::array<Plane<std::uint8_t>, 3>> full_colour;
+  detail::WeightedMedianConfig wm_config;
+  detail::ColourPlanes wm_colour;
   detail::MatchScratch match_scratch;
   detail::SpeckleScratch speckle_scratch;
   // Band SGM: the cost and sum storage every level's volume uses, the scratch of its stages, the
@@ -165,6 +173,14 @@ struct Matcher::Impl {
     for (int s = 0; s <= scale_steps; ++s) {
       for (int v = 0; v < 2; ++v) full_gray[v][s].reset(lw, lh);
       if (s < scale_steps) lw = (lw + 1) / 2, lh = (lh + 1) / 2;
+    }
+    if (p.weighted_median) {
+      full_colour.resize(scale_steps + 1);
+      for (int s = 0; s <= scale_steps; ++s)
+        for (auto& channel : full_colour[s]) channel.reset(full_gray[0][s].width(), full_gray[0][s].height());
+      wm_config.radius = p.wm_radius;
+      wm_config.step = p.wm_step;
+      wm_config.lut = detail::weighted_median_lut(p.wm_sigma);
     }
     levels.resize(p.pyramid_levels);
     int max_range = 1;
@@ -312,8 +328,16 @@ struct Matcher::Impl {
       stages->confidence(margin, L.disparity[0], need_right ? &L.disparity[1] : nullptr, params.lr_threshold,
                          confidence_q8);
     for (int v = 0; v < kept; ++v) stages->fill_invalid(L.disparity[v], params.fill);
+    // The colour-weighted median and its 3x3 median take the place of the post-fill median in the
+    // left map of the finest level.
+    int first_post = 0;
+    if (finest && params.weighted_median) {
+      stages->weighted_median(L.disparity[0], wm_colour, wm_config, L.scratch[0]);
+      stages->median_filter(L.scratch[0], 3, L.disparity[0]);
+      first_post = 1;
+    }
     if (params.post_median_size > 0) {
-      for (int v = 0; v < kept; ++v) {
+      for (int v = first_post; v < kept; ++v) {
         stages->median_filter(L.disparity[v], params.post_median_size, L.scratch[v]);
         std::swap(L.disparity[v], L.scratch[v]);
       }
@@ -412,10 +436,20 @@ struct Matcher::Impl {
 
     const int views = need_right ? 2 : 1;
     for (int v = 0; v < 2; ++v) stages->to_gray(*input[v], full_gray[v][0]);
+    // The weighted median's colour: the left view's channels (gray input: the gray plane itself).
+    const bool colour = params.weighted_median && left.format != PixelFormat::Gray8;
+    if (colour) stages->split_channels(left, full_colour[0]);
     slot_ms[kGray] += clock.lap_ms();
     for (int v = 0; v < 2; ++v) {
       for (std::size_t s = 1; s < full_gray[v].size(); ++s) stages->pyramid_down(full_gray[v][s - 1], full_gray[v][s]);
       for (std::size_t l = 1; l < levels.size(); ++l) stages->pyramid_down(level_image(l - 1, v), levels[l].image[v]);
+    }
+    if (colour)
+      for (std::size_t s = 1; s < full_colour.size(); ++s)
+        for (int c = 0; c < 3; ++c) stages->pyramid_down(full_colour[s - 1][c], full_colour[s][c]);
+    if (params.weighted_median) {
+      wm_colour.channels = colour ? 3 : 1;
+      for (int c = 0; c < 3; ++c) wm_colour.plane[c] = colour ? &full_colour.back()[c] : &full_gray[0].back();
     }
     slot_ms[kPyramid] += clock.lap_ms();
 
@@ -571,7 +605,7 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   std::size_t total = 0;
   int lw = width, lh = height;
   for (int s = 0; s <= scale_steps; ++s) {
-    total += 2 * gray_bytes(lw, lh);
+    total += (params.weighted_median ? 5 : 2) * gray_bytes(lw, lh);  // + the left view's three channels
     if (s < scale_steps) lw = (lw + 1) / 2, lh = (lh + 1) / 2;
   }
   int max_range = 1, w0 = lw, h0 = lh;

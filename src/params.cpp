@@ -214,6 +214,13 @@ std::string StereoParams::validate() const {
     fail("sgm_p1 = " + std::to_string(sgm_p1) + " must not exceed sgm_p2 = " + std::to_string(sgm_p2));
   if (sgm_p2_k < 0 || sgm_p2_k > 255)
     fail("sgm_p2_k = " + std::to_string(sgm_p2_k) + " must be in [0, 255] (0: constant P2)");
+  if (wm_radius < 1 || wm_radius > 15)
+    fail("wm_radius = " + std::to_string(wm_radius) + " must be in [1, 15] (pixels)");
+  if (wm_step < 1 || wm_step > std::max(1, std::min(wm_radius, 15)))
+    fail("wm_step = " + std::to_string(wm_step) + " must be in [1, wm_radius = " + std::to_string(wm_radius) +
+         "] (pixels)");
+  if (wm_sigma < 1 || wm_sigma > 255)
+    fail("wm_sigma = " + std::to_string(wm_sigma) + " must be in [1, 255] (colour levels)");
   if (sgm_max_band < 1 || sgm_max_band > 255)
     fail("sgm_max_band = " + std::to_string(sgm_max_band) + " must be in [1, 255]");
   if (sgm() && is_one_of(census_window, {3, 5, 7, 9}) && is_one_of(shd_window, {1, 3, 5, 7, 9}) &&
