@@ -86,6 +86,7 @@ TEST(Pipeline, OutputConventions) {
   p.num_disparities = 20;
   p.fill = FillMode::None;
   p.uniqueness_ratio = 30;  // leaves invalid pixels
+  p.weighted_median = false;  // which would give them the value of their neighbours
   const StereoPair pair = textured_pair(120, 40, 10, 9);
   Matcher m(120, 40, p);
   m.compute(pair.left_view(), pair.right_view());

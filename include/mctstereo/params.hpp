@@ -21,7 +21,7 @@ enum class MeanKernel {
 
 /// How pixels left without a disparity (occluded, mismatched) are filled along their row.
 enum class FillMode {
-  None,          ///< Leave them invalid.
+  None,          ///< Leave them invalid (the colour-weighted median, when on, still fills them).
   Nearest,       ///< Nearest valid pixel of the row; the closer side wins, a tie takes the smaller disparity.
   NearestLower,  ///< Smaller of the nearest valid values on the left and on the right (background wins).
 };
@@ -117,7 +117,8 @@ struct StereoParams {
   /// after LR check, speckle removal and the fill, followed by a 3x3 median that takes the place
   /// of the post-fill median there (post_median_size still applies to the coarser levels). Each
   /// pixel takes the weighted median of the whole disparities sampled around it, weighted by how
-  /// alike the left image's colours are (gray input: its gray values).
+  /// alike the left image's colours are (gray input: its gray values). Pixels still invalid
+  /// (FillMode::None) take the median of their valid neighbours too.
   bool weighted_median = false;
   /// Window radius R of the weighted median, pixels of the working scale: samples lie at the
   /// multiples of wm_step in [-R, R] in x and in y (coordinates clamped). Range [1, 15].

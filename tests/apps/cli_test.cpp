@@ -180,7 +180,7 @@ TEST_F(Cli, WeightedMedianFlagsRefuseBadValues) {
   expect_failure(kPair + "-o d.pfm --wm-radius 0", kUsage, "wm_radius = 0 must be in [1, 15] (pixels)");
   expect_failure(kPair + "-o d.pfm --wm-radius 16", kUsage, "wm_radius = 16 must be in [1, 15] (pixels) (--wm-radius)");
   expect_failure(kPair + "-o d.pfm --wm-radius 4 --wm-step 5", kUsage, "wm_step = 5 must be in [1, wm_radius = 4]");
-  expect_failure(kPair + "-o d.pfm --wm-step 0", kUsage, "wm_step = 0 must be in [1, wm_radius = 9]");
+  expect_failure(kPair + "-o d.pfm --wm-step 0", kUsage, "wm_step = 0 must be in [1, wm_radius = 6]");
   expect_failure(kPair + "-o d.pfm --wm-sigma 0", kUsage, "wm_sigma = 0 must be in [1, 255] (colour levels) (--wm-sigma)");
   expect_failure(kPair + "-o d.pfm --wm-sigma 256", kUsage, "wm_sigma = 256 must be in [1, 255]");
   expect_failure(kPair + "-o d.pfm --wm-step x", kUsage, "--wm-step");
@@ -199,7 +199,8 @@ TEST_F(Cli, WeightedMedianFlagsRefuseBadValues) {
 }
 
 TEST_F(Cli, PngFormatsHoldThePfmValuesScaled) {
-  const std::string range = "--num-disparities 16 --fill none";  // leave invalid pixels to check their code
+  // Leave invalid pixels to check their code (the weighted median would give them a value).
+  const std::string range = "--num-disparities 16 --fill none --weighted-median off";
   ASSERT_EQ(run(kPair + "-o d.pfm " + range).status, 0);
   const Result kitti = run(kPair + "-o kitti.png " + range);
   ASSERT_EQ(kitti.status, 0) << kitti.output;
@@ -520,7 +521,9 @@ std::vector<double> row_numbers(const std::string& output, const std::string& la
 
 TEST_F(Cli, EvalDerivesNonoccFromBothGroundTruths) {
   write_synthetic_scene(folder_ / "data/synth", "synth", GroundTruthFile::Png);
-  const Result r = run("eval data --threads 1 --json scores.json");
+  // The synthetic texture has no edge where the depth steps, which leaves the colour-weighted median
+  // nothing to go on (1.24 / 1.16 with it): this test is about the masks.
+  const Result r = run("eval data --threads 1 --weighted-median off --json scores.json");
   ASSERT_EQ(r.status, 0) << r.output;
   const std::vector<double> row = row_numbers(r.output, "synth", 5);  // nonocc all disc density ms
   ASSERT_EQ(row.size(), 5u) << r.output;

@@ -142,6 +142,7 @@ TEST(OpenclPipeline, FloatMapAndInvalidValueAsCpu) {
   p.num_disparities = 20;
   p.fill = FillMode::None;
   p.uniqueness_ratio = 30;  // leaves invalid pixels
+  p.weighted_median = false;  // which would give them the value of their neighbours
   const StereoPair pair = textured_pair(120, 40, 10, 9);
   MatcherOptions options;
   options.device = device_of(*rt);
