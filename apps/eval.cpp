@@ -20,6 +20,7 @@
 //     "mask_source": "files" (nonocc from a mask file), "derived-lr-check" (nonocc derived by the
 //       left-right check of the two views' ground truths) or "ground-truth-only" (no nonocc),
 //     "regions": the regions the scene has, of "nonocc", "all", "disc",
+//     "input": "colour" or "gray", the scene's left image as read,
 //     "methods": one per method, presets first: {
 //       "method", "kind" ("mctstereo" or "opencv"), "min_disparity", "num_disparities" (OpenCV:
 //       rounded up to a multiple of 16), "skipped" (the reason; only when the method could not
@@ -34,7 +35,10 @@
 //   "average", "average_percent_bad": the first preset's means over the scenes, as ever: "average"
 //     = {"nonocc", "all", "disc", "density", "ms"} (a region's mean over the scenes that have it);
 //     "average_percent_bad" = the mean of every v2 number of every scene,
-//   "methods": [{"method", "kind", "parameters" (presets), "scenes" (scored), "average": {"nonocc",
+//   "input": "colour", "gray" or "mixed": the scenes' left images; "colour": whether the first
+//     preset's maps were made from colour (its weighted median weighs by the left view's colour;
+//     matching always uses the luma),
+//   "methods": [{"method", "kind", "parameters" (presets), "colour" (as above, per method), "scenes" (scored), "average": {"nonocc",
 //     "all", "disc", "density", "ms", "bad_0_5", "bad_1", "bad_2", "bad_4", "avgerr", "rms",
 //     "invalid", "d1" (v3 and D1 of the nonocc region), "d1_all"}, "average_percent_bad"}],
 //   "radiometric" (with --radiometric): {"headline", "seed", "steps": [{"step", "kind", "amount",
@@ -646,6 +650,29 @@ double mean_ms(const std::vector<const Score*>& c) {
   return mean_over(c, [](const Score& s) { return s.ms; });
 }
 
+// Whether the maps were made from colour: what the scenes' left images are ("colour", "gray" or
+// "mixed"), and the presets that use the colour (the weighted median weighs by it; every other
+// stage matches the luma).
+std::string scene_input(const Evaluation& ev) {
+  std::size_t colour = 0;
+  for (const SceneData& s : ev.scenes) colour += s.left.channels() == 3;
+  return colour == ev.scenes.size() ? "colour" : colour == 0 ? "gray" : "mixed";
+}
+bool uses_colour(const Evaluation& ev, std::size_t m) {
+  return !ev.methods[m].peer && ev.methods[m].params.weighted_median && scene_input(ev) != "gray";
+}
+void print_input(const Evaluation& ev) {
+  std::vector<std::string> colour, gray;
+  for (std::size_t m = 0; m < ev.methods.size(); ++m)
+    if (!ev.methods[m].peer) (uses_colour(ev, m) ? colour : gray).push_back(ev.methods[m].name);
+  const std::string input = scene_input(ev);
+  std::string text = "input: " + std::string(input == "mixed" ? "colour and gray" : input) + " images; maps made from ";
+  if (!colour.empty()) text += "colour by " + joined(colour) + " (the weighted median weighs by colour; matching uses the luma)";
+  if (!colour.empty() && !gray.empty()) text += ", from ";
+  if (!gray.empty()) text += "gray (the luma) by " + joined(gray);
+  std::printf("%s\n", text.c_str());
+}
+
 void print_v2_table(const Evaluation& ev) {
   const std::size_t b = ev.baseline;
   const std::string threshold = fixed(ev.threshold, 2);
@@ -924,6 +951,7 @@ Json scene_json(const Evaluation& ev, std::size_t si) {
   for (int r = 0; r < kRegions; ++r) pixels.set(kRegionNames[r], first.v2[r] ? Json(first.v2[r]->pixels) : Json());
   j.set("pixels", std::move(pixels));
   j.set("mask_source", s.mask_source);
+  j.set("input", s.left.channels() == 3 ? "colour" : "gray");
   Json regions = Json::array();
   for (int r = 0; r < kRegions; ++r)
     if (!s.masks[r].empty()) regions.push_back(kRegionNames[r]);
@@ -1290,6 +1318,7 @@ void EvalCommand::run() const {
   progress.clear();
 
   print_v2_table(ev);
+  print_input(ev);
   print_v3_table(ev);
   print_sparsification_table(ev);
   Json study;
@@ -1323,6 +1352,8 @@ void EvalCommand::run() const {
     report.set("scenes", std::move(scenes_json));
     report.set("average", average_json(ev, 0, false));
     report.set("average_percent_bad", optional_number(average_percent_bad(ev.column(0, ev.baseline))));
+    report.set("input", scene_input(ev));
+    report.set("colour", uses_colour(ev, 0));
     Json methods_json = Json::array();
     for (std::size_t m = 0; m < methods.size(); ++m) {
       const std::vector<const Score*> c = ev.column(m, ev.baseline);
@@ -1330,6 +1361,7 @@ void EvalCommand::run() const {
       j.set("method", methods[m].name);
       j.set("kind", ev.kind(m));
       if (!methods[m].peer) j.set("parameters", parameters_json(methods[m].params));
+      j.set("colour", uses_colour(ev, m));
       j.set("scenes", static_cast<int>(std::count_if(c.begin(), c.end(), [](const Score* s) { return s->scored; })));
       j.set("average", average_json(ev, m, true));
       j.set("average_percent_bad", optional_number(average_percent_bad(c)));

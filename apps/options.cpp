@@ -38,6 +38,9 @@ constexpr FieldFlag kFieldFlags[] = {
     {"prior_size", "--prior-size"},
     {"finest_search_radius", "--finest-radius"},
     {"sgm_max_band", "--max-band"},
+    {"wm_radius", "--wm-radius"},
+    {"wm_step", "--wm-step"},
+    {"wm_sigma", "--wm-sigma"},
 };
 
 bool is_identifier_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
@@ -171,6 +174,22 @@ ParameterFlags::ParameterFlags(CLI::App& app) {
   add(app, "--max-band", v.sgm_max_band,
       "SGM: most candidates per pixel at the levels with a prior (memory W x H x this); [1, 255]",
       [&v](StereoParams& p) { p.sgm_max_band = v.sgm_max_band; });
+  app.add_option("--weighted-median", weighted_median_,
+                 "colour-weighted median at the finest level after the fill, then a 3x3 median (in place of "
+                 "--post-median there): on or off")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->group(kParameterGroup);
+  overrides_.push_back({"--weighted-median", app.get_option("--weighted-median"),
+                        [this](StereoParams& p) { p.weighted_median = weighted_median_ == "on"; }});
+  add(app, "--wm-radius", v.wm_radius, "weighted median: window radius, pixels of the working scale; [1, 15]",
+      [&v](StereoParams& p) { p.wm_radius = v.wm_radius; });
+  add(app, "--wm-step", v.wm_step,
+      "weighted median: sample every this many pixels in x and y (9 and 3: 7 x 7 samples); [1, --wm-radius]",
+      [&v](StereoParams& p) { p.wm_step = v.wm_step; });
+  add(app, "--wm-sigma", v.wm_sigma,
+      "weighted median: colour scale of the weights 64 exp(-k / sigma), k the largest channel difference; "
+      "[1, 255]",
+      [&v](StereoParams& p) { p.wm_sigma = v.wm_sigma; });
 }
 
 StereoParams ParameterFlags::resolve() const {
@@ -302,6 +321,10 @@ Json parameters_json(const StereoParams& p) {
   j.set("prior_size", p.prior_size);
   j.set("finest_search_radius", p.finest_search_radius);
   j.set("sgm_max_band", p.sgm_max_band);
+  j.set("weighted_median", p.weighted_median);
+  j.set("wm_radius", p.wm_radius);
+  j.set("wm_step", p.wm_step);
+  j.set("wm_sigma", p.wm_sigma);
   return j;
 }
 

@@ -42,7 +42,7 @@ class ParameterFlags {
   };
   std::string preset_name_ = "balanced";
   StereoParams values_;  // receives the numeric and boolean flags
-  std::string census_, mct_kernel_, fill_, aggregation_;
+  std::string census_, mct_kernel_, fill_, aggregation_, weighted_median_;
   std::vector<Override> overrides_;
 };
 

@@ -868,7 +868,10 @@ PARAMETER_LABELS = [
     ("refine_all_levels", "refine every level"), ("subpixel", "sub-pixel"), ("median_size", "median"),
     ("lr_check", "left-right check"), ("lr_threshold", "left-right threshold px"),
     ("speckle_size", "speckle removal (px)"), ("uniqueness_ratio", "uniqueness %"), ("fill", "fill"),
-    ("post_median_size", "median after filling"), ("working_scale", "working scale"),
+    ("post_median_size", "median after filling"),
+    ("weighted_median", "colour-weighted median (then 3x3 instead of the median after filling)"),
+    ("wm_radius", "weighted median radius px"), ("wm_step", "weighted median step px"),
+    ("wm_sigma", "weighted median sigma"), ("working_scale", "working scale"),
 ]
 
 

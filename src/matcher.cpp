@@ -41,6 +41,8 @@ struct StageTable {
   decltype(&detail::reference::sgm_scratch_bytes) sgm_scratch_bytes;
   decltype(&detail::reference::sgm_select) sgm_select;
   decltype(&detail::reference::confidence) confidence;
+  decltype(&detail::reference::split_channels) split_channels;
+  decltype(&detail::reference::weighted_median) weighted_median;
 };
 
 #define MCTSTEREO_STAGE_TABLE(ns)                                                                \
@@ -48,7 +50,7 @@ struct StageTable {
     &ns::to_gray, &ns::pyramid_down, &ns::census_transform, &ns::match,                          \
         &ns::match_scratch_bytes, &ns::median_filter, &ns::lr_check, &ns::remove_speckles,       \
         &ns::fill_invalid, &ns::upscale, &ns::sgm_costs, &ns::sgm_aggregate, &ns::sgm_scratch_bytes, \
-        &ns::sgm_select, &ns::confidence                                                         \
+        &ns::sgm_select, &ns::confidence, &ns::split_channels, &ns::weighted_median              \
   }
 const StageTable kReferenceStages = MCTSTEREO_STAGE_TABLE(detail::reference);
 const StageTable kCpuStages = MCTSTEREO_STAGE_TABLE(detail::cpu);
@@ -102,6 +104,12 @@ struct Matcher::Impl {
 
   std::vector<Plane<std::uint8_t>> full_gray[2];  // input size, then each working-scale reduction
   std::vector<Level> levels;                      // levels[0] is the finest (working scale)
+  // Colour-weighted median: the left view's channels at the input size, then each working-scale
+  // reduction (colour input; gray input uses full_gray), its weight table, and what the last frame
+  // gave it.
+  std::vector<std::array<Plane<std::uint8_t>, 3>> full_colour;
+  detail::WeightedMedianConfig wm_config;
+  detail::ColourPlanes wm_colour;
   detail::MatchScratch match_scratch;
   detail::SpeckleScratch speckle_scratch;
   // Band SGM: the cost and sum storage every level's volume uses, the scratch of its stages, the
@@ -145,6 +153,14 @@ struct Matcher::Impl {
     // Working-scale reductions of the input: full_gray[v][0] is the input size.
     for (int v = 0; v < 2; ++v)
       for (const detail::Size2& s : plan.working) full_gray[v].emplace_back(s.width, s.height);
+    if (p.weighted_median) {
+      full_colour.resize(plan.working.size());
+      for (std::size_t s = 0; s < plan.working.size(); ++s)
+        for (auto& channel : full_colour[s]) channel.reset(plan.working[s].width, plan.working[s].height);
+      wm_config.radius = p.wm_radius;
+      wm_config.step = p.wm_step;
+      wm_config.lut = detail::weighted_median_lut(p.wm_sigma);
+    }
     const int views = need_right ? 2 : 1;
     for (const detail::LevelSpec& spec : plan.levels) {
       Level& L = levels.emplace_back();
@@ -273,8 +289,16 @@ struct Matcher::Impl {
       stages->confidence(margin, L.disparity[0], need_right ? &L.disparity[1] : nullptr, params.lr_threshold,
                          confidence_q8);
     for (int v = 0; v < kept; ++v) stages->fill_invalid(L.disparity[v], params.fill);
+    // The colour-weighted median and its 3x3 median take the place of the post-fill median in the
+    // left map of the finest level.
+    int first_post = 0;
+    if (finest && params.weighted_median) {
+      stages->weighted_median(L.disparity[0], wm_colour, wm_config, L.scratch[0]);
+      stages->median_filter(L.scratch[0], 3, L.disparity[0]);
+      first_post = 1;
+    }
     if (params.post_median_size > 0) {
-      for (int v = 0; v < kept; ++v) {
+      for (int v = first_post; v < kept; ++v) {
         stages->median_filter(L.disparity[v], params.post_median_size, L.scratch[v]);
         std::swap(L.disparity[v], L.scratch[v]);
       }
@@ -373,10 +397,20 @@ struct Matcher::Impl {
 
     const int views = need_right ? 2 : 1;
     for (int v = 0; v < 2; ++v) stages->to_gray(*input[v], full_gray[v][0]);
+    // The weighted median's colour: the left view's channels (gray input: the gray plane itself).
+    const bool colour = params.weighted_median && left.format != PixelFormat::Gray8;
+    if (colour) stages->split_channels(left, full_colour[0]);
     slot_ms[kGray] += clock.lap_ms();
     for (int v = 0; v < 2; ++v) {
       for (std::size_t s = 1; s < full_gray[v].size(); ++s) stages->pyramid_down(full_gray[v][s - 1], full_gray[v][s]);
       for (std::size_t l = 1; l < levels.size(); ++l) stages->pyramid_down(level_image(l - 1, v), levels[l].image[v]);
+    }
+    if (colour)
+      for (std::size_t s = 1; s < full_colour.size(); ++s)
+        for (int c = 0; c < 3; ++c) stages->pyramid_down(full_colour[s - 1][c], full_colour[s][c]);
+    if (params.weighted_median) {
+      wm_colour.channels = colour ? 3 : 1;
+      for (int c = 0; c < 3; ++c) wm_colour.plane[c] = colour ? &full_colour.back()[c] : &full_gray[0].back();
     }
     slot_ms[kPyramid] += clock.lap_ms();
 
@@ -531,7 +565,8 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   const int scale_steps = static_cast<int>(plan.working.size()) - 1;
   const int words = plan.census_words;
   std::size_t total = 0;
-  for (const detail::Size2& s : plan.working) total += 2 * gray_bytes(s.width, s.height);
+  // The input's reductions, with the left view's three channels when the weighted median runs.
+  for (const detail::Size2& s : plan.working) total += (params.weighted_median ? 5 : 2) * gray_bytes(s.width, s.height);
   for (const detail::LevelSpec& L : plan.levels) {
     if (L.scale_log2 > scale_steps) total += 2 * gray_bytes(L.width, L.height);
     total += 2 * words * Plane<std::uint32_t>::bytes_for(L.width, L.height, detail::kCodePad);

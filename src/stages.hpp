@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <limits>
 
@@ -308,6 +309,38 @@ inline int sgm_p2_at(const SgmPathConfig& c, int a, int b) {
 /// The path steps (dx, dy) in the order their values are added: 4 paths take the first four.
 inline constexpr int kSgmSteps[8][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}, {1, 1}, {-1, 1}, {1, -1}, {-1, -1}};
 
+/// The colour of a level's left image for the colour-weighted median: `channels` planes of the
+/// level's size, 1 (gray input: its one channel) or 3 (the input's channels, in its byte order:
+/// only max over the channels enters, so RGB and BGR give the same weights).
+struct ColourPlanes {
+  int channels = 1;
+  std::array<const Plane<std::uint8_t>*, 3> plane{};
+};
+
+/// The colour-weighted median (docs/PIPELINE.md, "Colour-weighted median"): samples at the
+/// multiples of `step` in [-radius, radius] in each direction, weight lut[max over channels
+/// |C(p) - C(q)|] (0..64).
+struct WeightedMedianConfig {
+  int radius = 9;
+  int step = 3;
+  alignas(64) std::array<std::uint8_t, 256> lut{};
+};
+
+/// LUT[k] = round(64 exp(-k / sigma)), k = 0..255, as integers: built once on the host (every
+/// backend takes this table, none evaluates exp itself).
+inline std::array<std::uint8_t, 256> weighted_median_lut(int sigma) {
+  std::array<std::uint8_t, 256> lut{};
+  for (int k = 0; k < 256; ++k)
+    lut[k] = static_cast<std::uint8_t>(std::lround(64.0 * std::exp(-static_cast<double>(k) / sigma)));
+  return lut;
+}
+
+/// The integer disparity of a Q4 value: (v + 8) >> 4, i.e. rounded to nearest with halves up.
+inline int q4_to_whole(int v) { return (v + 8) >> 4; }
+
+/// Most samples per pixel of the colour-weighted median (radius 15, step 1).
+inline constexpr int kMaxWeightedMedianSamples = 31 * 31;
+
 /// Level range [floor(dmin / 2^l), ceil(dmax / 2^l)].
 inline int level_min(int dmin, int l) { return dmin >> l; }  // arithmetic shift = floor
 inline int level_max(int dmax, int l) { return -((-dmax) >> l); }
@@ -365,7 +398,16 @@ inline int level_max(int dmax, int l) { return -((-dmax) >> l); }
   /* S_R(x, d) = S(x + d, d) where that left pixel searched d), and the left winners' margin     */ \
   /* 255 (S2 - S1) / S2 (S2: best sum outside d-1..d+1; 0 without one) when margin != nullptr.  */ \
   void sgm_select(const SgmVolume& volume, const SgmSelectConfig& config, SgmScratch& scratch,     \
-                  Plane<std::int16_t>& left, Plane<std::int16_t>* right, Plane<std::uint8_t>* margin);
+                  Plane<std::int16_t>& left, Plane<std::int16_t>* right, Plane<std::uint8_t>* margin); \
+  /* Channels of interleaved RGB/BGR input into three planes (byte order kept); gray input:    */ \
+  /* its one channel into dst[0].                                                               */ \
+  void split_channels(const ImageView& src, std::array<Plane<std::uint8_t>, 3>& dst);              \
+  /* Colour-weighted median of a map (docs/PIPELINE.md): at each pixel the smallest whole d     */ \
+  /* whose running weight (samples with q4_to_whole(v) <= d) reaches ceil(total / 2); the pixel */ \
+  /* keeps its Q4 value where d is its own whole disparity, else 16 d; total 0: unchanged.      */ \
+  /* Invalid samples weigh 0. Values within +-2039 px (the Q4 range of the parameters).         */ \
+  void weighted_median(const Plane<std::int16_t>& src, const ColourPlanes& colour,                 \
+                       const WeightedMedianConfig& config, Plane<std::int16_t>& dst);
 
 namespace reference {
 MCTSTEREO_DECLARE_STAGES
@@ -375,6 +417,13 @@ namespace cpu {
 MCTSTEREO_DECLARE_STAGES
 /// Name of the SIMD target that dynamic dispatch picks on this machine.
 const char* simd_target_name();
+/// The colour-weighted median by other exact methods, kept for measurement (bench/): a histogram
+/// of the window's whole disparities per pixel, or a sort of its (d, w) samples; scalar code with
+/// OpenMP over rows. weighted_median() itself is the fastest exact form (a vector binary search).
+enum class WeightedMedianMethod { Histogram, Sort };
+void weighted_median_scalar(const Plane<std::int16_t>& src, const ColourPlanes& colour,
+                            const WeightedMedianConfig& config, WeightedMedianMethod method,
+                            Plane<std::int16_t>& dst);
 }  // namespace cpu
 
 #undef MCTSTEREO_DECLARE_STAGES

@@ -69,6 +69,36 @@ TEST(Params, SgmParametersAreChecked) {
   EXPECT_EQ(q.validate(), "");
 }
 
+TEST(Params, WeightedMedianParametersAreChecked) {
+  StereoParams p;
+  EXPECT_FALSE(p.weighted_median);  // off in the struct defaults
+  EXPECT_EQ(p.wm_radius, 9);
+  EXPECT_EQ(p.wm_step, 3);
+  EXPECT_EQ(p.wm_sigma, 10);
+  EXPECT_FALSE(preset("realtime").weighted_median);
+  const auto message = [](void (*mutate)(StereoParams&)) {
+    StereoParams q;
+    q.weighted_median = true;
+    mutate(q);
+    return q.validate();
+  };
+  EXPECT_EQ(message([](StereoParams&) {}), "");
+  EXPECT_EQ(message([](StereoParams& q) { q.wm_radius = 15, q.wm_step = 15, q.wm_sigma = 255; }), "");
+  EXPECT_EQ(message([](StereoParams& q) { q.wm_radius = 1, q.wm_step = 1, q.wm_sigma = 1; }), "");
+  EXPECT_EQ(message([](StereoParams& q) { q.wm_radius = 0; }).find("wm_radius = 0 must be in [1, 15]"), 0u);
+  EXPECT_NE(message([](StereoParams& q) { q.wm_radius = 16; }).find("wm_radius = 16 must be in [1, 15]"),
+            std::string::npos);
+  EXPECT_EQ(message([](StereoParams& q) { q.wm_step = 0; }), "wm_step = 0 must be in [1, wm_radius = 9] (pixels)");
+  EXPECT_EQ(message([](StereoParams& q) { q.wm_radius = 4, q.wm_step = 5; }),
+            "wm_step = 5 must be in [1, wm_radius = 4] (pixels)");
+  EXPECT_EQ(message([](StereoParams& q) { q.wm_sigma = 0; }), "wm_sigma = 0 must be in [1, 255] (colour levels)");
+  EXPECT_EQ(message([](StereoParams& q) { q.wm_sigma = 256; }), "wm_sigma = 256 must be in [1, 255] (colour levels)");
+  // Checked whether or not the stage is on, as every other parameter.
+  StereoParams off;
+  off.wm_sigma = 0;
+  EXPECT_NE(off.validate().find("wm_sigma = 0"), std::string::npos);
+}
+
 TEST(Params, UnknownPresetNamesTheKnownOnes) {
   try {
     preset("fastest");

@@ -7,6 +7,7 @@
 #include <ostream>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "mctstereo/matcher.hpp"
@@ -23,16 +24,58 @@ struct StereoPair {
   }
 };
 
-/// A textured pair with a smooth disparity field (0 at the top left, growing to max_disp at the
-/// bottom right), so that the coarse-to-fine path has real priors.
-inline StereoPair textured_pair(int w, int h, int max_disp, std::uint32_t seed) {
-  StereoPair p{random_texture(w, h, seed), Plane<std::uint8_t>(w, h)};
+/// The right view of a left view under a smooth disparity field (0 at the top left, growing to
+/// max_disp at the bottom right): right(x, y) = left(x + d, y).
+inline Plane<std::uint8_t> shifted_view(const Plane<std::uint8_t>& left, int max_disp) {
+  const int w = left.width(), h = left.height();
+  Plane<std::uint8_t> right(w, h);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const int d = (max_disp * (x + 2 * y)) / (w + 2 * h + 1);
-      p.right.at(x, y) = p.left.at(std::min(x + d, w - 1), y);
+      right.at(x, y) = left.at(std::min(x + d, w - 1), y);
     }
-  return p;
+  return right;
+}
+/// A gray view as interleaved colour in rows `extra` bytes longer than the pixels:
+/// the gray value, a texture of its own and the inverted gray value, as RGB or BGR (the channels
+/// differ, so a stage that uses colour sees more than the luma).
+struct ColourView {
+  std::vector<std::uint8_t> bytes;
+  ImageView view;
+  ColourView(const Plane<std::uint8_t>& gray, PixelFormat format, int extra, std::uint32_t seed) {
+    const int w = gray.width(), h = gray.height();
+    const std::ptrdiff_t stride = 3 * w + extra;
+    bytes.assign(static_cast<std::size_t>(stride) * h, 0xee);
+    const Plane<std::uint8_t> tint = random_texture(w, h, seed);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        std::uint8_t* p = &bytes[static_cast<std::size_t>(y) * stride + 3 * x];
+        const std::uint8_t c[3] = {gray.at(x, y), tint.at(x, y), static_cast<std::uint8_t>(255 - gray.at(x, y))};
+        for (int k = 0; k < 3; ++k) p[format == PixelFormat::Bgr8 ? 2 - k : k] = c[k];
+      }
+    view = {bytes.data(), w, h, stride, format};
+  }
+};
+
+/// A colour left view (ColourView of a texture), its luma as a gray view, and the gray right view
+/// that matches the luma with textured_pair's disparity field.
+struct ColourPair {
+  ColourView left;
+  StereoPair luma;  // left: the colour view's luma; right: the right view
+  ColourPair(int w, int h, int max_disp, std::uint32_t seed, PixelFormat format, int extra)
+      : left(random_texture(w, h, seed), format, extra, seed + 1) {
+    luma.left.reset(w, h);
+    detail::reference::to_gray(left.view, luma.left);
+    luma.right = shifted_view(luma.left, max_disp);
+  }
+};
+
+/// A textured pair with a smooth disparity field (0 at the top left, growing to max_disp at the
+/// bottom right), so that the coarse-to-fine path has real priors.
+inline StereoPair textured_pair(int w, int h, int max_disp, std::uint32_t seed) {
+  Plane<std::uint8_t> left = random_texture(w, h, seed);
+  Plane<std::uint8_t> right = shifted_view(left, max_disp);
+  return {std::move(left), std::move(right)};
 }
 
 /// The pixels of a map, row after row.
@@ -160,6 +203,29 @@ inline std::vector<PipelineCase> pipeline_cases() {
   StereoParams sgm_rows = preset("quality");
   sgm_rows.num_disparities = 20;
   out.push_back({"sgm_two_rows", sgm_rows, 45, 2});
+  // The colour-weighted median (gray input here; colour in the tests of their own): on the
+  // default preset, at working scale 2 with a negative range, a dense small window with a wide
+  // sigma, and one row.
+  StereoParams wm = preset("balanced");
+  wm.weighted_median = true;
+  wm.num_disparities = 24;
+  out.push_back({"weighted_median", wm, 97, 61});
+  StereoParams wm_scaled = preset("quality");
+  wm_scaled.weighted_median = true;
+  wm_scaled.working_scale = 2;
+  wm_scaled.min_disparity = -6;
+  wm_scaled.num_disparities = 36;
+  out.push_back({"weighted_median_scale_2_negative_min", wm_scaled, 83, 47});
+  StereoParams wm_dense = preset("realtime");
+  wm_dense.weighted_median = true;
+  wm_dense.wm_radius = 4;
+  wm_dense.wm_step = 1;
+  wm_dense.wm_sigma = 60;
+  wm_dense.num_disparities = 20;
+  out.push_back({"weighted_median_dense_box", wm_dense, 65, 33});
+  StereoParams wm_row = wm;
+  wm_row.num_disparities = 8;
+  out.push_back({"weighted_median_one_row", wm_row, 33, 1});
   return out;
 }
 

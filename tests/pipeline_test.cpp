@@ -86,6 +86,7 @@ TEST(Pipeline, OutputConventions) {
   p.num_disparities = 20;
   p.fill = FillMode::None;
   p.uniqueness_ratio = 30;  // leaves invalid pixels
+  p.weighted_median = false;  // which would give them the value of their neighbours
   const StereoPair pair = textured_pair(120, 40, 10, 9);
   Matcher m(120, 40, p);
   m.compute(pair.left_view(), pair.right_view());
@@ -160,6 +161,42 @@ TEST(Pipeline, ColourInputEqualsItsLuma) {
     for (int x = 0; x < w; ++x) ASSERT_EQ(colour.disparity_q4().at(x, y), gray.disparity_q4().at(x, y));
 }
 
+// The colour-weighted median on colour input: cpu == reference (RGB and BGR, padded rows, working
+// scales 1 and 2), RGB and BGR of the same pixels give the same map, and the map differs from the
+// one the stage makes from gray input (it does use the colour).
+TEST(Pipeline, WeightedMedianOnColourInput) {
+  const int w = 89, h = 41;
+  const ColourPair rgb(w, h, 14, 31, PixelFormat::Rgb8, 5), bgr(w, h, 14, 31, PixelFormat::Bgr8, 0);
+  const StereoPair& gray = rgb.luma;
+  ASSERT_EQ(first_difference(gray.left, bgr.luma.left), "");
+  for (int scale : {1, 2}) {
+    StereoParams p = preset("balanced");
+    p.weighted_median = true;
+    p.num_disparities = 24;
+    p.working_scale = scale;
+    const auto run_view = [&](const ImageView& left, const StereoParams& params, Backend b, int threads) {
+      MatcherOptions options;
+      options.threads = threads;
+      Matcher m(w, h, params, b, options);
+      m.compute(left, gray.right_view());
+      return pixels(m.disparity_q4());
+    };
+    const auto ref = run_view(rgb.left.view, p, Backend::Reference, 1);
+    for (int threads : {1, 2})
+      EXPECT_EQ(describe_difference(run_view(rgb.left.view, p, Backend::Cpu, threads), ref, w), "")
+          << "scale " << scale << " threads " << threads;
+    EXPECT_EQ(describe_difference(run_view(bgr.left.view, p, Backend::Reference, 1), ref, w), "") << "bgr " << scale;
+    EXPECT_EQ(describe_difference(run_view(bgr.left.view, p, Backend::Cpu, 2), ref, w), "") << "bgr " << scale;
+    // The same luma as gray input: only the weighted median's weights differ.
+    EXPECT_NE(run_view(gray.left_view(), p, Backend::Cpu, 2), ref) << "scale " << scale;
+    StereoParams off = p;
+    off.weighted_median = false;
+    const auto plain = run_view(rgb.left.view, off, Backend::Cpu, 2);
+    EXPECT_EQ(plain, run_view(gray.left_view(), off, Backend::Cpu, 2)) << "without the stage colour is its luma";
+    EXPECT_NE(plain, ref) << "the stage changes the map";
+  }
+}
+
 TEST(Pipeline, RejectsWrongInput) { expect_rejects_wrong_input(Backend::Cpu); }
 
 TEST(Pipeline, ComputeAllocatesNothingPerFrame) {
@@ -174,6 +211,23 @@ TEST(Pipeline, ComputeAllocatesNothingPerFrame) {
       m.compute(pair.left_view(), pair.right_view());
       m.compute(pair.left_view(), pair.right_view());
       EXPECT_EQ(g_allocations.load() - before, 0) << name << " " << to_string(b);
+    }
+  }
+  // The colour-weighted median, on colour and gray input, at working scales 1 and 2.
+  const ColourView rgb(pair.left, PixelFormat::Rgb8, 3, 5);  // the stage's colour; matching sees its luma
+  for (int scale : {1, 2}) {
+    StereoParams p = preset("quality");
+    p.weighted_median = true;
+    p.num_disparities = 32;
+    p.working_scale = scale;
+    for (Backend b : {Backend::Reference, Backend::Cpu}) {
+      Matcher m(160, 120, p, b);
+      m.compute(rgb.view, pair.right_view());
+      const long before = g_allocations.load();
+      m.compute(rgb.view, pair.right_view());
+      m.compute(pair.left_view(), pair.right_view());
+      m.compute(rgb.view, pair.right_view());
+      EXPECT_EQ(g_allocations.load() - before, 0) << "weighted median, scale " << scale << " " << to_string(b);
     }
   }
 }
@@ -210,7 +264,19 @@ TEST(Pipeline, OpenclComputeAllocatesNothingPerFrame) {
     m.compute(left, pair.right_view());
     (void)m.disparity();  // the float map's download
     EXPECT_EQ(g_allocations.load() - before, 0) << name;
-  }
+  }  // The colour-weighted median on colour and gray input.
+  StereoParams p = preset("balanced");
+  p.weighted_median = true;
+  p.num_disparities = 32;
+  options.compute_right = false;
+  Matcher m(160, 120, p, Backend::OpenCL, options);
+  m.compute(rgb_left, pair.right_view());
+  m.compute(pair.left_view(), pair.right_view());
+  const long before = g_allocations.load();
+  m.compute(rgb_left, pair.right_view());
+  m.compute(pair.left_view(), pair.right_view());
+  (void)m.disparity();
+  EXPECT_EQ(g_allocations.load() - before, 0) << "weighted median";
 }
 #endif
 

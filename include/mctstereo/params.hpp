@@ -21,7 +21,7 @@ enum class MeanKernel {
 
 /// How pixels left without a disparity (occluded, mismatched) are filled along their row.
 enum class FillMode {
-  None,          ///< Leave them invalid.
+  None,          ///< Leave them invalid (the colour-weighted median, when on, still fills them).
   Nearest,       ///< Nearest valid pixel of the row; the closer side wins, a tie takes the smaller disparity.
   NearestLower,  ///< Smaller of the nearest valid values on the left and on the right (background wins).
 };
@@ -112,6 +112,23 @@ struct StereoParams {
   /// A band whose priors span more is cut to this width around the pixel's own prior. The coarsest
   /// level (and sgm-full) holds its whole range. Range [1, 255].
   int sgm_max_band = 32;
+
+  /// Colour-weighted median (docs/PIPELINE.md, "Colour-weighted median") at the finest level,
+  /// after LR check, speckle removal and the fill, followed by a 3x3 median that takes the place
+  /// of the post-fill median there (post_median_size still applies to the coarser levels). Each
+  /// pixel takes the weighted median of the whole disparities sampled around it, weighted by how
+  /// alike the left image's colours are (gray input: its gray values). Pixels still invalid
+  /// (FillMode::None) take the median of their valid neighbours too.
+  bool weighted_median = false;
+  /// Window radius R of the weighted median, pixels of the working scale: samples lie at the
+  /// multiples of wm_step in [-R, R] in x and in y (coordinates clamped). Range [1, 15].
+  int wm_radius = 9;
+  /// Sampling step S of the weighted median window, pixels. Range [1, wm_radius]. 9 and 3 give
+  /// 7 x 7 = 49 samples.
+  int wm_step = 3;
+  /// Colour scale sigma of the weights 64 exp(-k / sigma) (rounded to integers), with k the
+  /// largest difference of the channels, 0..255. Range [1, 255].
+  int wm_sigma = 10;
 
   /// Working scale s: 1, 2 or 4. The pipeline runs on the input reduced s times (binomial pyramid)
   /// and the result is replicated s x s with disparities multiplied by s.

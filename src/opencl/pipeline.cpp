@@ -124,6 +124,10 @@ struct Pipeline::Stages {
   std::optional<SgmAggregate> sgm_aggregate;
   std::optional<SgmSelect> sgm_select;
   std::optional<Confidence> confidence;
+  // The colour-weighted median, its channel split and the 3x3 median after it.
+  std::optional<SplitChannels> split;
+  std::optional<WeightedMedian> weighted_median;
+  std::optional<MedianFilter> wm_median;
 
   // check_right: some level checks the right view's map too.
   Stages(Runtime& rt, const StereoParams& p, bool check_right, bool compute_right)
@@ -139,6 +143,15 @@ struct Pipeline::Stages {
     if (p.lr_check && check_right) lr_check[1].emplace(rt, +1);
     if (p.working_scale > 1) upscale.emplace(rt, p.working_scale);
     if (compute_right) output.emplace(rt, false);
+    if (p.weighted_median) {
+      WeightedMedianConfig config;
+      config.radius = p.wm_radius;
+      config.step = p.wm_step;
+      config.lut = weighted_median_lut(p.wm_sigma);
+      split.emplace(rt);
+      weighted_median.emplace(rt, config);
+      wm_median.emplace(rt, 3);
+    }
     if (p.sgm()) {
       sgm_costs.emplace(rt, pick_popcount(rt.device()));
       sgm_aggregate.emplace(rt);
@@ -189,6 +202,10 @@ Pipeline::Pipeline(const DeviceInfo& device, int width, int height, const Stereo
         input_[v].stride = static_cast<std::size_t>(width_) * 3;
         stages_->to_gray(format).run(input_[v], full_gray_[v][0]);
       }
+      if (v == 0 && params.weighted_median) {
+        stages_->split->run(input_[0], full_colour_[0]);
+        colour_input_ = true;
+      }
     }
     rt_->reset_times();
     run_levels();
@@ -203,6 +220,7 @@ Pipeline::Pipeline(const DeviceInfo& device, int width, int height, const Stereo
     timings_.push_back({label, 0.0});
     // Band SGM's confidence comes after speckle removal, as in the frame.
     if (params.sgm() && std::string_view(label) == "speckle") timings_.push_back({"confidence", 0.0});
+    if (params.weighted_median && std::string_view(label) == "fill") timings_.push_back({"weighted_median", 0.0});
   }
 }
 
@@ -230,6 +248,11 @@ void Pipeline::allocate() {
   for (int v = 0; v < 2; ++v) {
     full_gray_[v].resize(plan.working.size());
     for (std::size_t s = 0; s < plan.working.size(); ++s) plane(full_gray_[v][s], plan.working[s].width, plan.working[s].height);
+  }
+  if (p.weighted_median) {
+    full_colour_.resize(plan.working.size());
+    for (std::size_t s = 0; s < plan.working.size(); ++s)
+      for (auto& channel : full_colour_[s]) plane(channel, plan.working[s].width, plan.working[s].height);
   }
   levels_.resize(plan.levels.size());
   const int views = need_right_ ? 2 : 1;
@@ -306,6 +329,7 @@ void Pipeline::upload_input(const ImageView& image, int v) {
   const std::size_t row_bytes = static_cast<std::size_t>(width_) * bytes_per_pixel(image.format);
   const std::array<std::size_t, 3> region{row_bytes, static_cast<std::size_t>(height_), 1};
   const std::size_t host_pitch = static_cast<std::size_t>(image.stride);
+  if (v == 0) colour_input_ = image.format != PixelFormat::Gray8;
   if (image.format == PixelFormat::Gray8) {
     DevicePlane<std::uint8_t>& gray = full_gray_[v][0];
     rt_->queue().enqueueWriteBufferRect(gray.buffer, CL_TRUE, origin, origin, region, gray.stride, 0, host_pitch,
@@ -318,6 +342,8 @@ void Pipeline::upload_input(const ImageView& image, int v) {
   rt_->queue().enqueueWriteBufferRect(in.bytes, CL_TRUE, origin, origin, region, in.stride, 0, host_pitch, 0,
                                       image.data);
   stages_->to_gray(in.format).run(in, full_gray_[v][0]);
+  // The weighted median's colour: the left view's channels.
+  if (v == 0 && params_.weighted_median) stages_->split->run(in, full_colour_[0]);
 }
 
 void Pipeline::run_levels() {
@@ -326,6 +352,13 @@ void Pipeline::run_levels() {
     for (std::size_t s = 1; s < full_gray_[v].size(); ++s) stages_->pyramid.run(full_gray_[v][s - 1], full_gray_[v][s]);
     for (std::size_t l = 1; l < levels_.size(); ++l)
       stages_->pyramid.run(level_image(static_cast<int>(l) - 1, v), levels_[l].image[v]);
+  }
+  if (params_.weighted_median) {
+    if (colour_input_)
+      for (std::size_t s = 1; s < full_colour_.size(); ++s)
+        for (int c = 0; c < 3; ++c) stages_->pyramid.run(full_colour_[s - 1][c], full_colour_[s][c]);
+    wm_colour_.channels = colour_input_ ? 3 : 1;
+    for (int c = 0; c < 3; ++c) wm_colour_.plane[c] = colour_input_ ? &full_colour_.back()[c] : &full_gray_[0].back();
   }
 
   for (int l = static_cast<int>(levels_.size()) - 1; l >= 0; --l) {
@@ -384,8 +417,16 @@ void Pipeline::refine(Level& L, bool finest) {
     stages_->confidence->run(margin_, L.disparity[0], need_right_ ? &L.disparity[1] : nullptr, params_.lr_threshold,
                              confidence_);
   for (int v = 0; v < kept; ++v) stages_->fill.run(L.disparity[v]);
+  // The colour-weighted median and its 3x3 median take the place of the post-fill median in the
+  // left map of the finest level.
+  int first_post = 0;
+  if (finest && params_.weighted_median) {
+    stages_->weighted_median->run(L.disparity[0], wm_colour_, L.scratch[0]);
+    stages_->wm_median->run(L.scratch[0], L.disparity[0]);
+    first_post = 1;
+  }
   if (params_.post_median_size > 0) {
-    for (int v = 0; v < kept; ++v) {
+    for (int v = first_post; v < kept; ++v) {
       stages_->post_median->run(L.disparity[v], L.scratch[v]);
       std::swap(L.disparity[v], L.scratch[v]);
     }

@@ -2,6 +2,7 @@
 // checks the input and owns the host maps; this class owns the device, its buffers and the frame.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <mutex>
@@ -76,6 +77,11 @@ class Pipeline {
 
   DeviceImage input_[2];                               // colour input as the caller's bytes, packed rows
   std::vector<DevicePlane<std::uint8_t>> full_gray_[2];  // input size, then each working-scale reduction
+  // Colour-weighted median: the left view's channels at the input size and each working-scale
+  // reduction (colour input), and the colour the frame gives the stage.
+  std::vector<std::array<DevicePlane<std::uint8_t>, 3>> full_colour_;
+  DeviceColour wm_colour_;
+  bool colour_input_ = false;
   std::vector<Level> levels_;                            // levels_[0] is the finest (working scale)
   std::unique_ptr<Stages> stages_;                       // made once; matching's are the levels' own
   DevicePlane<std::int16_t> upscaled_[2], out_q4_[2];

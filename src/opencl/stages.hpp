@@ -233,6 +233,32 @@ class Confidence : StageKernel {
            const DevicePlane<std::int16_t>* right, int threshold, DevicePlane<std::uint8_t>& dst);
 };
 
+/// reference::split_channels of colour input (RGB or BGR bytes as uploaded) into three planes.
+class SplitChannels : StageKernel {
+ public:
+  explicit SplitChannels(Runtime& rt);
+  void run(const DeviceImage& src, std::array<DevicePlane<std::uint8_t>, 3>& dst);
+};
+
+/// The colour of a level for the weighted median on the device: `channels` (1 or 3) planes of
+/// the level's size (a gray input's plane three times over when 1).
+struct DeviceColour {
+  int channels = 1;
+  const DevicePlane<std::uint8_t>* plane[3] = {nullptr, nullptr, nullptr};
+};
+
+/// reference::weighted_median. The table (config.lut, built on the host) is uploaded once when
+/// the stage is made.
+class WeightedMedian : StageKernel {
+ public:
+  WeightedMedian(Runtime& rt, const WeightedMedianConfig& config);
+  void run(const DevicePlane<std::int16_t>& src, const DeviceColour& colour, DevicePlane<std::int16_t>& dst);
+
+ private:
+  int reach_, step_;
+  cl::Buffer lut_;
+};
+
 // One call each: the stage made for it, then run.
 void to_gray(Runtime& rt, const DeviceImage& src, DevicePlane<std::uint8_t>& dst);
 void pyramid_down(Runtime& rt, const DevicePlane<std::uint8_t>& src, DevicePlane<std::uint8_t>& dst);
@@ -248,6 +274,9 @@ void lr_check(Runtime& rt, const DevicePlane<std::int16_t>& src, const DevicePla
 void fill_invalid(Runtime& rt, DevicePlane<std::int16_t>& disparity, FillMode mode);
 void upscale(Runtime& rt, const DevicePlane<std::int16_t>& src, int factor, int lo_q4, int hi_q4,
              DevicePlane<std::int16_t>& dst);
+void split_channels(Runtime& rt, const DeviceImage& src, std::array<DevicePlane<std::uint8_t>, 3>& dst);
+void weighted_median(Runtime& rt, const DevicePlane<std::int16_t>& src, const DeviceColour& colour,
+                     const WeightedMedianConfig& config, DevicePlane<std::int16_t>& dst);
 /// The float map is made when `disparity` is not null.
 void to_output(Runtime& rt, const DevicePlane<std::int16_t>& src, std::int16_t invalid_q4,
                DevicePlane<std::int16_t>& q4, DevicePlane<float>* disparity);

@@ -88,6 +88,30 @@ TEST(OpenclPipeline, ColourInputWithPaddedRowsEqualsCpu) {
   EXPECT_EQ(describe_difference(gray_ocl.left, gray_cpu.left, w), "");
 }
 
+// The colour-weighted median on colour input (RGB with padded rows, BGR packed; working scales
+// 1 and 2), and on gray input: opencl == cpu.
+TEST(OpenclPipeline, WeightedMedianOnColourInputEqualsCpu) {
+  MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
+  const int w = 89, h = 41;
+  const ColourPair rgb(w, h, 14, 31, PixelFormat::Rgb8, 5), bgr(w, h, 14, 31, PixelFormat::Bgr8, 0);
+  const StereoPair& pair = rgb.luma;
+  for (int scale : {1, 2}) {
+    StereoParams p = preset("balanced");
+    p.weighted_median = true;
+    p.num_disparities = 24;
+    p.working_scale = scale;
+    for (const ImageView& left : {rgb.left.view, bgr.left.view, pair.left_view()}) {
+      for (bool right : {false, true}) {
+        const Maps cpu = run(left, pair.right_view(), p, Backend::Cpu, "", right);
+        const Maps ocl = run(left, pair.right_view(), p, Backend::OpenCL, device_of(*rt), right);
+        EXPECT_EQ(describe_difference(ocl.left, cpu.left, w), "")
+            << "scale " << scale << " format " << format_name(left.format) << " right " << right;
+        if (right) EXPECT_EQ(describe_difference(ocl.right, cpu.right, w), "") << "right map";
+      }
+    }
+  }
+}
+
 // Buffers are reused frame after frame, and matchers of other sizes and parameters share the
 // device (and its programs) between them.
 TEST(OpenclPipeline, FramesAndMatchersOnOneDeviceStayExact) {
@@ -118,6 +142,7 @@ TEST(OpenclPipeline, FloatMapAndInvalidValueAsCpu) {
   p.num_disparities = 20;
   p.fill = FillMode::None;
   p.uniqueness_ratio = 30;  // leaves invalid pixels
+  p.weighted_median = false;  // which would give them the value of their neighbours
   const StereoPair pair = textured_pair(120, 40, 10, 9);
   MatcherOptions options;
   options.device = device_of(*rt);

@@ -164,8 +164,8 @@ TEST(OpenclSgm, AutoRunsOnTheDeviceAndTimesTheStages) {
     if (t.stage == "match") match_ms = t.ms;
   }
   EXPECT_EQ(labels, (std::vector<std::string>{"upload", "gray", "pyramid", "census", "match", "median", "lr_check",
-                                              "speckle", "confidence", "fill", "upscale", "output", "download",
-                                              "frame"}));
+                                              "speckle", "confidence", "fill", "weighted_median", "upscale",
+                                              "output", "download", "frame"}));
   EXPECT_GT(match_ms, 0.0);
   EXPECT_NE(m.confidence().data, nullptr);
 }

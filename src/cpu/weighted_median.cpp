@@ -1,0 +1,289 @@
+// The colour-weighted median with Highway SIMD: one vector of adjacent pixels of a row at a time
+// (every lane shares the sample offsets, so each sample is one contiguous load per plane), OpenMP
+// over rows.
+//
+// Per vector: the weight of each sample is lut[max over channels |C(p) - C(q)|] (0 for invalid
+// samples), looked up 16 entries at a time with TableLookupBytes (only the blocks of the table
+// that hold a non-zero entry: 4 of 16 with sigma 10). The weighted median is then found by a
+// binary search over the whole disparities, per lane: with S(d) the weight of the samples whose
+// whole disparity is <= d (monotone in d), the answer is the smallest d in [lo, hi] (the lane's
+// smallest and largest sampled disparity) with S(d) >= ceil(total / 2); each pass halves every
+// lane's interval with one compare and one masked add per sample, and the passes stop when every
+// lane has converged (about log2 of the widest interval of the vector).
+//
+// Exact, as the reference: integer weights, sums of at most 961 x 64 < 2^16 in u16 lanes.
+// Measured against a per-pixel histogram and a per-pixel sort (weighted_median_scalar, kept for
+// bench/stage_benchmark.cpp): see docs/PIPELINE.md.
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "cpu/weighted_median.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
+#include <algorithm>
+#include <cstdint>
+#include <cstring>
+#include <utility>
+
+#include "stages.hpp"
+
+HWY_BEFORE_NAMESPACE();
+namespace mctstereo::detail::cpu::HWY_NAMESPACE {
+namespace hn = hwy::HWY_NAMESPACE;
+
+using D16 = hn::ScalableTag<std::int16_t>;
+using DU16 = hn::RebindToUnsigned<D16>;
+#if HWY_TARGET != HWY_SCALAR
+using DU8 = hn::Repartition<std::uint8_t, D16>;  // a whole vector of bytes (the table lookups)
+#endif
+using DC8 = hn::Rebind<std::uint8_t, D16>;       // one byte per lane (the colour loads)
+using V16 = hn::Vec<D16>;
+using VU16 = hn::Vec<DU16>;
+
+constexpr int kMaxRows = 31;  // sample rows (or columns) at most: radius 15, step 1
+constexpr int kMaxReach = 15;
+
+// lut[k] for k in u16 lanes (k <= 255). The table is read 16 entries at a time: each block b
+// covers k = 16 b .. 16 b + 15, and blocks past `blocks` hold only zeros.
+#if HWY_TARGET == HWY_SCALAR
+HWY_INLINE VU16 LookUp(const std::uint8_t* HWY_RESTRICT lut, int /*blocks*/, VU16 k) {
+  return hn::Set(DU16(), lut[hn::GetLane(k)]);  // one lane
+}
+#else
+HWY_INLINE VU16 LookUp(const std::uint8_t* HWY_RESTRICT lut, int blocks, VU16 k) {
+  const DU16 du16;
+  const DU8 du8;
+  const auto lo = hn::BitCast(du8, hn::And(k, hn::Set(du16, 15)));  // bytes (k & 15, 0)
+  const VU16 hi = hn::ShiftRight<4>(k);
+  VU16 r = hn::Zero(du16);
+  for (int b = 0; b < blocks; ++b) {
+    const VU16 entry = hn::BitCast(du16, hn::TableLookupBytes(hn::LoadDup128(du8, lut + 16 * b), lo));
+    r = hn::IfThenElse(hn::Eq(hi, hn::Set(du16, static_cast<std::uint16_t>(b))), entry, r);
+  }
+  // The high byte of each lane looked up entry 0.
+  return hn::And(r, hn::Set(du16, 0xFF));
+}
+#endif
+
+// Whole disparity (v + 8) >> 4 of Q4 lanes, without the overflow of v + 8: ((v >> 1) + 4) >> 3.
+HWY_INLINE V16 Whole(V16 v) {
+  return hn::ShiftRight<3>(hn::Add(hn::ShiftRight<1>(v), hn::Set(D16(), 4)));
+}
+
+// One vector of output pixels. map[j], colour[c][j]: sample row j (of 2 K + 1), at the column of
+// the vector's first pixel; offsets dx = -reach, -reach + step, ..., reach are read from there.
+template <int kChannels>
+HWY_INLINE V16 MedianVector(const std::int16_t* const* map, const std::uint8_t* const (*colour)[kMaxRows], int rows,
+                            int reach, int step, const std::uint8_t* HWY_RESTRICT lut, int blocks,
+                            std::int16_t* HWY_RESTRICT disp, std::uint16_t* HWY_RESTRICT weight) {
+  const D16 d;
+  const DU16 du16;
+  const DC8 dc8;
+  const std::size_t n = hn::Lanes(d);
+  const int centre = rows / 2;
+  const V16 invalid = hn::Set(d, kInvalid);
+  VU16 centre_colour[kChannels];
+  for (int c = 0; c < kChannels; ++c) centre_colour[c] = hn::PromoteTo(du16, hn::LoadU(dc8, colour[c][centre]));
+
+  // Weights and whole disparities of the samples; the lane's range and total.
+  V16 lo = hn::Set(d, 32767), hi = hn::Set(d, -32768);
+  VU16 total = hn::Zero(du16);
+  int s = 0;
+  for (int j = 0; j < rows; ++j) {
+    for (int dx = -reach; dx <= reach; dx += step, ++s) {
+      const V16 v = hn::LoadU(d, map[j] + dx);
+      VU16 k = hn::Zero(du16);
+      for (int c = 0; c < kChannels; ++c) {
+        const VU16 q = hn::PromoteTo(du16, hn::LoadU(dc8, colour[c][j] + dx));
+        const VU16 diff = hn::Or(hn::SaturatedSub(q, centre_colour[c]), hn::SaturatedSub(centre_colour[c], q));
+        k = hn::Max(k, diff);
+      }
+      const VU16 w = hn::IfThenZeroElse(hn::RebindMask(du16, hn::Eq(v, invalid)), LookUp(lut, blocks, k));
+      const V16 dv = Whole(v);
+      const auto counts = hn::RebindMask(d, hn::Gt(hn::BitCast(d, w), hn::Zero(d)));  // w <= 64
+      lo = hn::IfThenElse(counts, hn::Min(lo, dv), lo);
+      hi = hn::IfThenElse(counts, hn::Max(hi, dv), hi);
+      total = hn::Add(total, w);
+      hn::Store(dv, d, disp + s * n);
+      hn::Store(w, du16, weight + s * n);
+    }
+  }
+  const int samples = s;
+  const V16 own = hn::LoadU(d, map[centre]);
+  const auto empty = hn::RebindMask(d, hn::Eq(total, hn::Zero(du16)));
+  // Lanes without weight: an empty interval that never moves (their output is the pixel itself).
+  lo = hn::IfThenZeroElse(empty, lo);
+  hi = hn::IfThenZeroElse(empty, hi);
+  const VU16 half = hn::ShiftRight<1>(hn::Add(total, hn::Set(du16, 1)));  // ceil(total / 2)
+
+  // Invariant: the answer lies in [lo, hi] (S(hi) >= half).
+  while (!hn::AllTrue(d, hn::Eq(lo, hi))) {
+    const V16 mid = hn::ShiftRight<1>(hn::Add(lo, hi));  // floor; |lo|, |hi| <= 2048
+    VU16 sum = hn::Zero(du16);
+    for (int i = 0; i < samples; ++i) {
+      const auto above = hn::RebindMask(du16, hn::Gt(hn::Load(d, disp + i * n), mid));
+      sum = hn::Add(sum, hn::IfThenZeroElse(above, hn::Load(du16, weight + i * n)));
+    }
+    // sum >= half, as saturating half - sum == 0 (u16 lanes hold sums beyond the i16 range).
+    const auto enough = hn::RebindMask(d, hn::Eq(hn::SaturatedSub(half, sum), hn::Zero(du16)));
+    hi = hn::IfThenElse(enough, mid, hi);
+    lo = hn::IfThenElse(enough, lo, hn::Add(mid, hn::Set(d, 1)));
+  }
+  const auto keeps = hn::Or(empty, hn::AndNot(hn::Eq(own, invalid), hn::Eq(Whole(own), lo)));
+  return hn::IfThenElse(keeps, own, hn::ShiftLeft<4>(lo));
+}
+
+template <int kChannels>
+void MedianRows(const Plane<std::int16_t>& src, const ColourPlanes& colour, const WeightedMedianConfig& config,
+                Plane<std::int16_t>& dst) {
+  const D16 d;
+  const int w = src.width(), h = src.height();
+  const int n = static_cast<int>(hn::Lanes(d));
+  constexpr std::size_t kMaxLanes = hn::MaxLanes(D16());
+  const int step = config.step, reach = config.radius / step * step;
+  const int rows = 2 * (reach / step) + 1;
+  int blocks = 0;
+  for (int k = 0; k < 256; ++k)
+    if (config.lut[k] != 0) blocks = k / 16 + 1;
+  const std::uint8_t* lut = config.lut.data();
+
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int y = 0; y < h; ++y) {
+    HWY_ALIGN std::int16_t disp[kMaxWeightedMedianSamples * kMaxLanes];
+    HWY_ALIGN std::uint16_t weight[kMaxWeightedMedianSamples * kMaxLanes];
+    // Vectors near a border (or every vector of a narrow map) read copies of their window with
+    // clamped columns: kMaxLanes + 2 reach entries, and a vector's slack after them.
+    constexpr int kBorderWidth = kMaxLanes + 2 * kMaxReach + kMaxLanes;
+    HWY_ALIGN std::int16_t border_map[kMaxRows][kBorderWidth];
+    HWY_ALIGN std::uint8_t border_colour[3][kMaxRows][kBorderWidth];
+    HWY_ALIGN std::int16_t tail[kMaxLanes];
+    const std::int16_t* map_rows[kMaxRows];
+    const std::uint8_t* colour_rows[3][kMaxRows];
+    for (int j = 0; j < rows; ++j) {
+      const int yj = clamp_index(y + (j - rows / 2) * step, h);
+      map_rows[j] = src.row(yj);
+      for (int c = 0; c < kChannels; ++c) colour_rows[c][j] = colour.plane[c]->row(yj);
+    }
+    std::int16_t* out = dst.row(y);
+    for (int x0 = 0; x0 < w; x0 += n) {
+      const std::int16_t* map[kMaxRows];
+      const std::uint8_t* col[3][kMaxRows];
+      if (x0 >= reach && x0 + n + reach <= w) {
+        for (int j = 0; j < rows; ++j) {
+          map[j] = map_rows[j] + x0;
+          for (int c = 0; c < kChannels; ++c) col[c][j] = colour_rows[c][j] + x0;
+        }
+      } else {
+        for (int j = 0; j < rows; ++j) {
+          for (int i = 0; i < n + 2 * reach; ++i) {
+            const int x = clamp_index(x0 - reach + i, w);
+            border_map[j][i] = map_rows[j][x];
+            for (int c = 0; c < kChannels; ++c) border_colour[c][j][i] = colour_rows[c][j][x];
+          }
+          map[j] = border_map[j] + reach;
+          for (int c = 0; c < kChannels; ++c) col[c][j] = border_colour[c][j] + reach;
+        }
+      }
+      const V16 m = MedianVector<kChannels>(map, col, rows, reach, step, lut, blocks, disp, weight);
+      if (x0 + n <= w) {
+        hn::StoreU(m, d, out + x0);
+      } else {
+        hn::Store(m, d, tail);
+        std::memcpy(out + x0, tail, sizeof(std::int16_t) * (w - x0));
+      }
+    }
+  }
+}
+
+void WeightedMedian(const Plane<std::int16_t>& src, const ColourPlanes& colour, const WeightedMedianConfig& config,
+                    Plane<std::int16_t>& dst) {
+  if (colour.channels == 3) MedianRows<3>(src, colour, config, dst);
+  else MedianRows<1>(src, colour, config, dst);
+}
+
+}  // namespace mctstereo::detail::cpu::HWY_NAMESPACE
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace mctstereo::detail::cpu {
+HWY_EXPORT(WeightedMedian);
+
+void weighted_median(const Plane<std::int16_t>& src, const ColourPlanes& colour, const WeightedMedianConfig& config,
+                     Plane<std::int16_t>& dst) {
+  if (src.width() == 0 || src.height() == 0) return;
+  HWY_DYNAMIC_DISPATCH(WeightedMedian)(src, colour, config, dst);
+}
+
+// The scalar forms, for measurement: the samples of a pixel as (d, w), then a histogram over
+// [smallest d, largest d] or a sort, and the same scan for ceil(total / 2).
+void weighted_median_scalar(const Plane<std::int16_t>& src, const ColourPlanes& colour,
+                            const WeightedMedianConfig& config, WeightedMedianMethod method,
+                            Plane<std::int16_t>& dst) {
+  const int w = src.width(), h = src.height();
+  const int step = config.step, reach = config.radius / step * step;
+  const int channels = colour.channels;
+#pragma omp parallel for schedule(dynamic, 4)
+  for (int y = 0; y < h; ++y) {
+    std::pair<int, int> samples[kMaxWeightedMedianSamples];
+    int histogram[4097] = {};  // whole disparities -2048 .. 2048
+    const std::uint8_t* centre[3];
+    for (int c = 0; c < channels; ++c) centre[c] = colour.plane[c]->row(y);
+    for (int x = 0; x < w; ++x) {
+      int count = 0, total = 0, lo = 1 << 20, hi = -(1 << 20);
+      for (int dy = -reach; dy <= reach; dy += step) {
+        const int qy = clamp_index(y + dy, h);
+        const std::int16_t* row = src.row(qy);
+        for (int dx = -reach; dx <= reach; dx += step) {
+          const int qx = clamp_index(x + dx, w);
+          const int v = row[qx];
+          if (v == kInvalid) continue;
+          int k = 0;
+          for (int c = 0; c < channels; ++c) {
+            const int diff = centre[c][x] - colour.plane[c]->row(qy)[qx];
+            k = std::max(k, diff < 0 ? -diff : diff);
+          }
+          const int weight = config.lut[k];
+          if (weight == 0) continue;
+          const int dv = q4_to_whole(v);
+          samples[count++] = {dv, weight};
+          total += weight;
+          lo = std::min(lo, dv);
+          hi = std::max(hi, dv);
+        }
+      }
+      const int own = src.row(y)[x];
+      if (total == 0) {
+        dst.row(y)[x] = static_cast<std::int16_t>(own);
+        continue;
+      }
+      const int half = (total + 1) / 2;
+      int median = hi;
+      if (method == WeightedMedianMethod::Histogram) {
+        for (int i = 0; i < count; ++i) histogram[samples[i].first + 2048] += samples[i].second;
+        int running = 0;
+        for (int dv = lo; dv <= hi; ++dv) {
+          running += histogram[dv + 2048];
+          if (running >= half) {
+            median = dv;
+            break;
+          }
+        }
+        for (int i = 0; i < count; ++i) histogram[samples[i].first + 2048] = 0;
+      } else {
+        std::sort(samples, samples + count);
+        int running = 0;
+        for (int i = 0; i < count; ++i) {
+          running += samples[i].second;
+          if (running >= half) {
+            median = samples[i].first;
+            break;
+          }
+        }
+      }
+      dst.row(y)[x] = own != kInvalid && q4_to_whole(own) == median ? static_cast<std::int16_t>(own)
+                                                                    : static_cast<std::int16_t>(16 * median);
+    }
+  }
+}
+
+}  // namespace mctstereo::detail::cpu
+#endif
