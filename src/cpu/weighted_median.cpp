@@ -64,6 +64,38 @@ HWY_INLINE VU16 LookUp(const std::uint8_t* HWY_RESTRICT lut, int blocks, VU16 k)
 }
 #endif
 
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+// AVX-512BW: VPERMI2W looks up 64 u16 entries held in two registers, so the table (widened to
+// u16) is four such pairs, of which only those with a non-zero entry are used; the pair of each
+// lane is picked by k >> 6. Some 4 instructions per vector of 32 lanes where the 16-entry byte
+// lookups above take 3 per block of 16 entries.
+struct WideTable {
+  __m512i part[8];  // entries 32 i .. 32 i + 31
+  int pairs = 0;    // pairs of parts with a non-zero entry
+};
+
+HWY_INLINE WideTable MakeWideTable(const std::uint8_t* lut, int blocks) {
+  WideTable t;
+  HWY_ALIGN std::uint16_t wide[256];
+  for (int k = 0; k < 256; ++k) wide[k] = lut[k];
+  for (int i = 0; i < 8; ++i) t.part[i] = _mm512_load_si512(wide + 32 * i);
+  t.pairs = (blocks * 16 + 63) / 64;
+  return t;
+}
+
+HWY_INLINE VU16 LookUpWide(const WideTable& t, VU16 k) {
+  __m512i r = _mm512_permutex2var_epi16(t.part[0], k.raw, t.part[1]);
+  for (int p = 1; p < t.pairs; ++p) {
+    const __m512i e = _mm512_permutex2var_epi16(t.part[2 * p], k.raw, t.part[2 * p + 1]);
+    r = _mm512_mask_mov_epi16(r, _mm512_cmpge_epu16_mask(k.raw, _mm512_set1_epi16(static_cast<short>(64 * p))), e);
+  }
+  // Lanes past the used pairs (k >= 64 pairs) hold zeros in the table.
+  r = _mm512_maskz_mov_epi16(_mm512_cmplt_epu16_mask(k.raw, _mm512_set1_epi16(static_cast<short>(64 * t.pairs))), r);
+  return VU16{r};
+}
+#define MCTSTEREO_WM_WIDE_TABLE 1
+#endif
+
 // Whole disparity (v + 8) >> 4 of Q4 lanes, without the overflow of v + 8: ((v >> 1) + 4) >> 3.
 HWY_INLINE V16 Whole(V16 v) {
   return hn::ShiftRight<3>(hn::Add(hn::ShiftRight<1>(v), hn::Set(D16(), 4)));
@@ -74,7 +106,8 @@ HWY_INLINE V16 Whole(V16 v) {
 template <int kChannels>
 HWY_INLINE V16 MedianVector(const std::int16_t* const* map, const std::uint8_t* const (*colour)[kMaxRows], int rows,
                             int reach, int step, const std::uint8_t* HWY_RESTRICT lut, int blocks,
-                            std::int16_t* HWY_RESTRICT disp, std::uint16_t* HWY_RESTRICT weight) {
+                            const void* wide_table, std::int16_t* HWY_RESTRICT disp,
+                            std::uint16_t* HWY_RESTRICT weight) {
   const D16 d;
   const DU16 du16;
   const DC8 dc8;
@@ -97,7 +130,14 @@ HWY_INLINE V16 MedianVector(const std::int16_t* const* map, const std::uint8_t* 
         const VU16 diff = hn::Or(hn::SaturatedSub(q, centre_colour[c]), hn::SaturatedSub(centre_colour[c], q));
         k = hn::Max(k, diff);
       }
-      const VU16 w = hn::IfThenZeroElse(hn::RebindMask(du16, hn::Eq(v, invalid)), LookUp(lut, blocks, k));
+#ifdef MCTSTEREO_WM_WIDE_TABLE
+      (void)lut;
+      const VU16 looked_up = LookUpWide(*static_cast<const WideTable*>(wide_table), k);
+#else
+      (void)wide_table;
+      const VU16 looked_up = LookUp(lut, blocks, k);
+#endif
+      const VU16 w = hn::IfThenZeroElse(hn::RebindMask(du16, hn::Eq(v, invalid)), looked_up);
       const V16 dv = Whole(v);
       const auto counts = hn::RebindMask(d, hn::Gt(hn::BitCast(d, w), hn::Zero(d)));  // w <= 64
       lo = hn::IfThenElse(counts, hn::Min(lo, dv), lo);
@@ -145,6 +185,12 @@ void MedianRows(const Plane<std::int16_t>& src, const ColourPlanes& colour, cons
   for (int k = 0; k < 256; ++k)
     if (config.lut[k] != 0) blocks = k / 16 + 1;
   const std::uint8_t* lut = config.lut.data();
+#ifdef MCTSTEREO_WM_WIDE_TABLE
+  const WideTable wide = MakeWideTable(lut, blocks);
+  const void* wide_table = &wide;
+#else
+  const void* wide_table = nullptr;
+#endif
 
 #pragma omp parallel for schedule(dynamic, 4)
   for (int y = 0; y < h; ++y) {
@@ -183,7 +229,7 @@ void MedianRows(const Plane<std::int16_t>& src, const ColourPlanes& colour, cons
           for (int c = 0; c < kChannels; ++c) col[c][j] = border_colour[c][j] + reach;
         }
       }
-      const V16 m = MedianVector<kChannels>(map, col, rows, reach, step, lut, blocks, disp, weight);
+      const V16 m = MedianVector<kChannels>(map, col, rows, reach, step, lut, blocks, wide_table, disp, weight);
       if (x0 + n <= w) {
         hn::StoreU(m, d, out + x0);
       } else {
@@ -200,6 +246,7 @@ void WeightedMedian(const Plane<std::int16_t>& src, const ColourPlanes& colour, 
   else MedianRows<1>(src, colour, config, dst);
 }
 
+#undef MCTSTEREO_WM_WIDE_TABLE
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE
 HWY_AFTER_NAMESPACE();
 
