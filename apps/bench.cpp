@@ -27,7 +27,7 @@
 //     "backend" (mctstereo only), "threads_requested" (the --threads value of the group),
 //     "warmup_frames", "stage_median_ms" (mctstereo only: the median over the timed frames of each
 //     entry of Matcher::timings(); reference and cpu: {"gray", "pyramid", "census", "match",
-//     "refine", "output", "frame"}; opencl: {"upload", "gray", "pyramid", "census", "match",
+//     "refine", "wmedian" (the colour-weighted median), "output", "frame"}; opencl: {"upload", "gray", "pyramid", "census", "match",
 //     "median", "lr_check", "speckle", "fill", "upscale", "output", "download", "frame"}, the
 //     kernels' device times from profiling events and the host's times of the rest),
 //     "ratio_to_stereobm" (fps / fps of StereoBM in the same group; null without one), last }

@@ -79,8 +79,11 @@ class Stopwatch {
   std::chrono::steady_clock::time_point t0_;
 };
 
-enum StageSlot { kGray, kPyramid, kCensus, kMatch, kRefine, kOutput, kFrame, kSlotCount };
-constexpr const char* kSlotNames[kSlotCount] = {"gray", "pyramid", "census", "match", "refine", "output", "frame"};
+// "wmedian" is the colour-weighted median with its 3x3 median (0 without them), apart from the
+// rest of the refinement.
+enum StageSlot { kGray, kPyramid, kCensus, kMatch, kRefine, kWeightedMedian, kOutput, kFrame, kSlotCount };
+constexpr const char* kSlotNames[kSlotCount] = {"gray",    "pyramid", "census", "match",
+                                                "refine",  "wmedian", "output", "frame"};
 
 }  // namespace
 
@@ -293,9 +296,12 @@ struct Matcher::Impl {
     // left map of the finest level.
     int first_post = 0;
     if (finest && params.weighted_median) {
+      Stopwatch clock;
+      clock.start();
       stages->weighted_median(L.disparity[0], wm_colour, wm_config, L.scratch[0]);
       stages->median_filter(L.scratch[0], 3, L.disparity[0]);
       first_post = 1;
+      slot_ms[kWeightedMedian] += clock.lap_ms();
     }
     if (params.post_median_size > 0) {
       for (int v = first_post; v < kept; ++v) {
@@ -303,6 +309,13 @@ struct Matcher::Impl {
         std::swap(L.disparity[v], L.scratch[v]);
       }
     }
+  }
+
+  // refine() of a level that refines, timed: the weighted median's share goes to its own slot.
+  void refine_level(Level& L, bool finest, Stopwatch& clock) {
+    const double wm_before = slot_ms[kWeightedMedian];
+    if (L.refine) refine(L, finest);
+    slot_ms[kRefine] += clock.lap_ms() - (slot_ms[kWeightedMedian] - wm_before);
   }
 
   // Band SGM at level l: band costs around the coarser left map, paths, winners of both views.
@@ -424,8 +437,7 @@ struct Matcher::Impl {
       if (params.sgm()) {
         match_sgm(l, coarsest ? nullptr : &levels[l + 1].disparity[0]);
         slot_ms[kMatch] += clock.lap_ms();
-        if (L.refine) refine(L, l == 0);
-        slot_ms[kRefine] += clock.lap_ms();
+        refine_level(L, l == 0, clock);
         continue;
       }
       for (int v = 0; v < views; ++v) {
@@ -436,8 +448,7 @@ struct Matcher::Impl {
         stages->match(L.codes[v], L.codes[1 - v], ranges, match, match_scratch, L.disparity[v]);
       }
       slot_ms[kMatch] += clock.lap_ms();
-      if (L.refine) refine(L, l == 0);
-      slot_ms[kRefine] += clock.lap_ms();
+      refine_level(L, l == 0, clock);
     }
 
     const int scale = params.working_scale;

@@ -163,7 +163,7 @@ class BenchCli : public mctstereo::test::FolderTest {
   }
 };
 
-const std::vector<std::string> kStages = {"gray", "pyramid", "census", "match", "refine", "output", "frame"};
+const std::vector<std::string> kStages = {"gray", "pyramid", "census", "match", "refine", "wmedian", "output", "frame"};
 
 TEST_F(BenchCli, LoadAndTheOpenmpWaitAreReported) {
   // Without a setting of the user's, the program runs with a short OpenMP spin; a user's setting
