@@ -118,6 +118,19 @@ ImageInput image_input(const py::array& a, const char* role, int width, int heig
   return in;
 }
 
+// A numpy array, or what numpy makes of another object (a nested list, a buffer): the array itself
+// when it is one, so that its memory is read in place.
+py::array as_array(const py::object& object, const char* role) {
+  if (py::isinstance<py::array>(object)) return py::reinterpret_borrow<py::array>(object);
+  py::array a = py::array::ensure(object);
+  if (!a) {
+    PyErr_Clear();
+    throw py::type_error(std::string(role) + " image: expected a numpy uint8 array, not " +
+                         std::string(py::str(py::type::handle_of(object).attr("__name__"))));
+  }
+  return a;
+}
+
 PixelFormat parse_channels(const std::string& order) {
   if (order == "bgr" || order == "BGR") return PixelFormat::Bgr8;
   if (order == "rgb" || order == "RGB") return PixelFormat::Rgb8;
@@ -177,7 +190,7 @@ py::object last_map(PyMatcher& self, Get get) {
       std::memcpy(dst + static_cast<std::ptrdiff_t>(y) * map.width, map.row(y), sizeof(T) * map.width);
   });
   if (none) return py::none();
-  return std::move(out);
+  return out;
 }
 
 std::string params_repr(const std::vector<std::string>& fields, py::handle self) {
@@ -370,9 +383,10 @@ PYBIND11_MODULE(_mctstereo, m) {
            py::arg("threads") = 0, py::arg("device") = "", py::arg("compute_right") = false)
       .def(
           "compute",
-          [](PyMatcher& self, const py::array& left, const py::array& right, const std::string& channels) {
+          [](PyMatcher& self, const py::object& left_object, const py::object& right_object, const std::string& channels) {
             const PixelFormat colour = parse_channels(channels);
             const int w = self.matcher->width(), h = self.matcher->height();
+            const py::array left = as_array(left_object, "left"), right = as_array(right_object, "right");
             std::vector<std::uint8_t> scratch[2];  // only for layouts the engine cannot read
             const ImageInput l = image_input(left, "left", w, h, colour, scratch[0]);
             const ImageInput r = image_input(right, "right", w, h, colour, scratch[1]);
@@ -587,8 +601,7 @@ PYBIND11_MODULE(_mctstereo, m) {
         ImageView image;  // null data: no colours
         py::array colour_array;
         if (!colours.is_none()) {
-          colour_array = py::array::ensure(colours);
-          if (!colour_array) throw py::type_error("colours: expected a numpy uint8 image or None");
+          colour_array = as_array(colours, "colours");
           image = image_input(colour_array, "colours", v.width, v.height, parse_channels(channels), scratch).view;
         }
         PointCloud cloud;

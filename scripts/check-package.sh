@@ -46,14 +46,16 @@ case "$mode" in
     if [ -n "$python_dir" ] && [ -d "$prefix/$python_dir/mctstereo" ]; then
       echo "== Python module ($python_dir)"
       (cd "$work" && PYTHONPATH="$prefix/$python_dir" "$python" - "${pair[@]}" <<'PY'
+import re
 import sys
 import numpy as np
 import mctstereo
 
 def read_ppm(path):
     data = open(path, "rb").read()
-    magic, w, h, maxval, pixels = data.split(maxsplit=4)
-    return np.frombuffer(pixels, np.uint8).reshape(int(h), int(w), 3)
+    header = re.match(rb"P6\s+(\d+)\s+(\d+)\s+255\s", data)
+    w, h = int(header[1]), int(header[2])
+    return np.frombuffer(data, np.uint8, w * h * 3, header.end()).reshape(h, w, 3)
 
 left, right = read_ppm(sys.argv[1]), read_ppm(sys.argv[2])
 matcher = mctstereo.Matcher(left.shape[1], left.shape[0], mctstereo.preset("balanced", num_disparities=16))
