@@ -4,8 +4,10 @@
 #       into a temporary prefix, then the consumer with find_package(mctstereo), the consumer compiled
 #       by hand with `pkg-config --cflags --libs mctstereo`, and the Python module imported from
 #       the prefix when it was built (ctest runs this as package.installed);
-#   scripts/check-package.sh subdirectory            the consumer with add_subdirectory() of this
-#       source tree: the library alone, no program, tests or benchmarks (CI runs this).
+#   scripts/check-package.sh subdirectory [CMAKE_ARGS...]   the consumer with add_subdirectory() of
+#       this source tree, configured with CMAKE_ARGS (-DBUILD_SHARED_LIBS=ON, say): the library alone,
+#       no program, tests or benchmarks (CI runs this with a shared library, so that the consumer
+#       links only what the shared library exports).
 set -euo pipefail
 source_dir="$(cd "$(dirname "$0")/.." && pwd)"
 mode="${1:-installed}"
@@ -67,8 +69,9 @@ PY
     ;;
   subdirectory)
     echo "== add_subdirectory(mctstereo)"
+    shift
     cmake -S "$source_dir/examples/consumer" -B "$work/sub" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release \
-      -DMCTSTEREO_SOURCE_DIR="$source_dir" >/dev/null
+      -DMCTSTEREO_SOURCE_DIR="$source_dir" "$@" >/dev/null
     cmake --build "$work/sub" >/dev/null
     # Only the library and the consumer: nothing of the program, the tests or the benchmarks.
     for target in mctstereo_cli mctstereo_tests mctstereo_benchmarks mctstereo_python; do
@@ -77,6 +80,7 @@ PY
         exit 1
       fi
     done
+    if [ -e "$work/sub/mctstereo/src/libmctstereo.so" ]; then echo "(shared library)"; fi
     "$work/sub/consumer" "${pair[@]}"
     ;;
   *)
