@@ -111,7 +111,7 @@ cv::Matx33d parse_middlebury_matrix(const std::string& key, const std::string& v
   return m;
 }
 
-Calibration read_middlebury(const std::string& path, const std::string& text) {
+Calibration read_middlebury(const std::string& path, const std::string& text, int image_width, int image_height) {
   const FileErrors errors{path};
   std::map<std::string, std::string> values;
   std::istringstream lines(text);
@@ -166,6 +166,10 @@ Calibration read_middlebury(const std::string& path, const std::string& text) {
   c.width = integer("width");
   c.height = integer("height");
   if ((c.width == 0) != (c.height == 0)) errors.missing(c.width == 0 ? "width" : "height", "given with the other");
+  if (c.width == 0 && image_width > 0) {
+    c.width = image_width;
+    c.height = image_height;
+  }
   c.ndisp = integer("ndisp");
   (void)number("vmin");  // checked for form only: the disparity range comes from ndisp
   (void)number("vmax");
@@ -174,26 +178,32 @@ Calibration read_middlebury(const std::string& path, const std::string& text) {
 
 // ---- OpenCV FileStorage -----------------------------------------------------------------------------
 
+// One or more FileStorage files read as one: a key comes from the first file that has it (OpenCV's
+// stereo_calib sample writes intrinsics.yml and extrinsics.yml, which share none).
 class StorageReader {
  public:
-  StorageReader(const std::string& path, const FileErrors& errors) : errors_(errors) {
-    try {
-      storage_.open(path, cv::FileStorage::READ);
-    } catch (const cv::Exception& e) {
-      errors_.fail("cannot parse it as an OpenCV FileStorage file (YAML, XML, JSON): " + trimmed(e.err));
+  StorageReader(const std::vector<std::string>& paths, const FileErrors& errors) : errors_(errors) {
+    for (const std::string& path : paths) {
+      const FileErrors file_errors{path};
+      cv::FileStorage& storage = storages_.emplace_back();
+      try {
+        storage.open(path, cv::FileStorage::READ);
+      } catch (const cv::Exception& e) {
+        file_errors.fail("cannot parse it as an OpenCV FileStorage file (YAML, XML, JSON): " + trimmed(e.err));
+      }
+      if (!storage.isOpened()) file_errors.fail("cannot open it as an OpenCV FileStorage file (YAML, XML, JSON)");
     }
-    if (!storage_.isOpened()) errors_.fail("cannot open it as an OpenCV FileStorage file (YAML, XML, JSON)");
   }
 
-  bool has(const std::string& key) const { return !storage_[key].empty() && !storage_[key].isNone(); }
+  bool has(const std::string& key) const { return !node(key).empty(); }
 
   // The matrix under `key` as CV_64F, with `rows` x `cols` when those are > 0; empty when absent.
   cv::Mat matrix(const std::string& key, int rows, int cols) const {
     if (!has(key)) return {};
-    const cv::FileNode node = storage_[key];
+    const cv::FileNode found = node(key);
     cv::Mat m;
     try {
-      if (node.isMap()) node >> m;
+      if (found.isMap()) found >> m;
     } catch (const cv::Exception&) {
       m.release();
     }
@@ -224,22 +234,31 @@ class StorageReader {
 
   std::optional<int> integer(const std::string& key) const {
     if (!has(key)) return std::nullopt;
-    const cv::FileNode node = storage_[key];
-    if (!node.isInt() && !node.isReal()) errors_.malformed(key, "is not a number");
-    const double v = node.real();
+    const cv::FileNode found = node(key);
+    if (!found.isInt() && !found.isReal()) errors_.malformed(key, "is not a number");
+    const double v = found.real();
     if (v != std::floor(v) || v < 0 || v > 1e9) errors_.malformed(key, "is not a non-negative whole number");
     return static_cast<int>(v);
   }
 
   std::optional<std::string> text(const std::string& key) const {
     if (!has(key)) return std::nullopt;
-    const cv::FileNode node = storage_[key];
-    if (!node.isString()) errors_.malformed(key, "is not a string");
-    return node.string();
+    const cv::FileNode found = node(key);
+    if (!found.isString()) errors_.malformed(key, "is not a string");
+    return found.string();
   }
 
  private:
-  cv::FileStorage storage_;
+  // The key's node in the first file that has it; an empty node when none has.
+  cv::FileNode node(const std::string& key) const {
+    for (const cv::FileStorage& storage : storages_) {
+      const cv::FileNode n = storage[key];
+      if (!n.empty() && !n.isNone()) return n;
+    }
+    return {};
+  }
+
+  std::vector<cv::FileStorage> storages_;
   const FileErrors& errors_;
 };
 
@@ -287,9 +306,17 @@ void projections_of(const StereoGeometry& g, cv::Mat& P1, cv::Mat& P2, cv::Mat& 
        g.doffs / g.baseline);
 }
 
-Calibration read_storage(const std::string& path) {
+// The names of several files for messages: "a.yml + b.yml".
+std::string joined(const std::vector<std::string>& paths) {
+  std::string s;
+  for (const std::string& p : paths) s += (s.empty() ? "" : " + ") + p;
+  return s;
+}
+
+Calibration read_storage(const std::vector<std::string>& paths, int image_width, int image_height) {
+  const std::string path = joined(paths);
   const FileErrors errors{path};
-  const StorageReader file(path, errors);
+  const StorageReader file(paths, errors);
   Calibration c;
   c.source = path;
 
@@ -302,6 +329,10 @@ Calibration read_storage(const std::string& path) {
   c.width = file.integer(width_key).value_or(0);
   c.height = file.integer(height_key).value_or(0);
   if ((c.width == 0) != (c.height == 0)) errors.missing(c.width == 0 ? width_key : height_key, "given with the other");
+  if (c.width == 0 && image_width > 0) {  // the size of the images it is used for (OpenCV's sample writes none)
+    c.width = image_width;
+    c.height = image_height;
+  }
   c.ndisp = file.integer("ndisp").value_or(0);
 
   // The raw cameras. OpenCV's stereo_calib sample names the camera matrices M1, M2.
@@ -402,13 +433,28 @@ bool looks_like_storage(const std::string& path, const std::string& text) {
 
 }  // namespace
 
-Calibration read_calibration(const std::string& path) {
-  const std::string text = read_text(path);
-  if (looks_like_middlebury(text)) return read_middlebury(path, text);
-  if (looks_like_storage(path, text)) return read_storage(path);
-  throw RuntimeError("calibration " + in_quotes(path) +
-                     ": unknown format: expected a Middlebury calib.txt (cam0=[...], baseline=...) or an OpenCV "
-                     "FileStorage file (.yml, .yaml, .xml, .json)");
+Calibration read_calibration(const std::string& path, int image_width, int image_height) {
+  return read_calibration(std::vector<std::string>{path}, image_width, image_height);
+}
+
+Calibration read_calibration(const std::vector<std::string>& paths, int image_width, int image_height) {
+  if (paths.empty()) throw std::invalid_argument("read_calibration: no file");
+  if ((image_width > 0) != (image_height > 0))
+    throw std::invalid_argument("read_calibration: give both image_width and image_height, or neither");
+  for (const std::string& path : paths) {
+    const std::string text = read_text(path);
+    if (looks_like_middlebury(text)) {
+      if (paths.size() == 1) return read_middlebury(path, text, image_width, image_height);
+      throw RuntimeError("calibration " + in_quotes(path) +
+                         ": a Middlebury calib.txt holds a whole calibration: only OpenCV FileStorage files "
+                         "(intrinsics and extrinsics) are read together");
+    }
+    if (!looks_like_storage(path, text))
+      throw RuntimeError("calibration " + in_quotes(path) +
+                         ": unknown format: expected a Middlebury calib.txt (cam0=[...], baseline=...) or an OpenCV "
+                         "FileStorage file (.yml, .yaml, .xml, .json)");
+  }
+  return read_storage(paths, image_width, image_height);
 }
 
 void write_calibration(const std::string& path, const Calibration& calibration) {
@@ -461,8 +507,11 @@ const CLI::Validator& positive_number() {
 }
 
 void CalibrationFlags::add_to(CLI::App& app) {
-  app.add_option("--calib", file_,
-                 "stereo calibration: Middlebury calib.txt, or OpenCV YAML/XML/JSON with P1 P2, Q, or K1 D1 K2 D2 R T");
+  app.add_option("--calib", files_,
+                 "stereo calibration: Middlebury calib.txt, or OpenCV YAML/XML/JSON with P1 P2, Q, or K1 (M1) D1 K2 (M2) "
+                 "D2 R T; twice for OpenCV's intrinsics and extrinsics files (read as one); the image size, when the "
+                 "file has none, is the pair's")
+      ->allow_extra_args(false);
   app.add_option("--focal", focal_, "focal length in pixels of the images as given (overrides --calib)")
       ->check(positive_number());
   app.add_option("--baseline", baseline_, "distance between the camera centres, in --units (overrides --calib)")
@@ -476,22 +525,22 @@ void CalibrationFlags::add_to(CLI::App& app) {
 }
 
 bool CalibrationFlags::given() const {
-  return !file_.empty() || focal_ || baseline_ || cx_ || cy_ || doffs_ || !units_.empty();
+  return !files_.empty() || focal_ || baseline_ || cx_ || cy_ || doffs_ || !units_.empty();
 }
 
 std::optional<Calibration> CalibrationFlags::resolve(int width, int height, const std::string& image) const {
   if (!given()) return std::nullopt;
   if (!units_.empty()) (void)millimetres_per_unit(units_);  // UsageError naming an unknown unit
   Calibration c;
-  if (!file_.empty()) {
-    c = read_calibration(file_);
+  if (!files_.empty()) {
+    c = read_calibration(files_, width, height);
     check_calibration_fits(c, width, height, image);
     if (!baseline_ && !units_.empty() && lower(units_) != lower(c.geometry.units)) {
       // Converting needs the file's unit to be one we know.
       try {
         c.geometry.baseline *= millimetres_per_unit(c.geometry.units) / millimetres_per_unit(units_);
       } catch (const UsageError&) {
-        throw RuntimeError("calibration " + in_quotes(file_) + ": key 'units': '" + c.geometry.units +
+        throw RuntimeError("calibration " + in_quotes(c.source) + ": key 'units': '" + c.geometry.units +
                            "' cannot be converted to --units " + units_ + " (known: m, cm, mm, in, ft)");
       }
       c.geometry.units = units_;
@@ -518,7 +567,7 @@ std::optional<Calibration> CalibrationFlags::resolve(int width, int height, cons
   try {
     c.geometry.validate();
   } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("calibration ") + (file_.empty() ? "flags" : in_quotes(file_)) + ": " + e.what());
+    throw UsageError(std::string("calibration ") + (files_.empty() ? "flags" : in_quotes(c.source)) + ": " + e.what());
   }
   return c;
 }

@@ -8,6 +8,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "mctstereo/depth.hpp"
 
@@ -49,7 +50,17 @@ struct Calibration {
 /// - needs_rectification: a file holding the raw cameras (K1, D1, K2, D2) is for images as the
 ///   cameras took them, which must be rectified (with R1, R2, P1, P2); `rectified: 1` in the file
 ///   says the images are rectified already. A file without K1, D1, K2, D2 is for rectified images.
-Calibration read_calibration(const std::string& path);
+///
+/// image_width x image_height (both > 0, or 0 for unknown) is the size of the images the calibration
+/// is used for: a file without an image size (OpenCV's stereo_calib sample writes none) takes it, so
+/// that stereoRectify and the rectification maps have one; a file with a size keeps its own (see
+/// check_calibration_fits).
+Calibration read_calibration(const std::string& path, int image_width = 0, int image_height = 0);
+/// Several OpenCV FileStorage files read as one, such as the intrinsics.yml (M1 D1 M2 D2) and
+/// extrinsics.yml (R T R1 R2 P1 P2 Q) of OpenCV's stereo_calib sample: each key comes from the first
+/// file that has it; messages name the files as "A + B". A Middlebury calib.txt is whole and is read
+/// alone. One path is read_calibration(path, ...).
+Calibration read_calibration(const std::vector<std::string>& paths, int image_width = 0, int image_height = 0);
 
 /// Writes `calibration` as an OpenCV YAML file that read_calibration reads back to the same values
 /// (to rounding): image size, units, ndisp, the raw cameras and R1, R2 when it has them, with
@@ -64,7 +75,7 @@ void check_calibration_fits(const Calibration& calibration, int width, int heigh
 /// A check of CLI11 for flags that take a positive finite number ("must be a positive number, not X").
 const CLI::Validator& positive_number();
 
-/// --calib FILE and the plain flags --focal, --baseline, --cx, --cy, --doffs, --units. Flags
+/// --calib FILE (given twice: the two files read as one) and the plain flags --focal, --baseline, --cx, --cy, --doffs, --units. Flags
 /// override the file's values; without a file, --focal and --baseline are needed and cx, cy
 /// default to the image centre ((width - 1) / 2, (height - 1) / 2), doffs to 0. --units names the
 /// unit of --baseline (default: the file's unit, else m); with --calib and no --baseline, the file's
@@ -74,15 +85,15 @@ class CalibrationFlags {
   void add_to(CLI::App& app);
   /// Whether any calibration was given.
   bool given() const;
-  /// The --calib file ("" without one): an input, which no output may overwrite.
-  const std::string& file() const { return file_; }
+  /// The --calib files (none without one): inputs, which no output may overwrite.
+  const std::vector<std::string>& files() const { return files_; }
   /// The calibration of the flags for images of width x height (`image` names them in messages);
   /// std::nullopt when none was given. UsageError for an incomplete or invalid set of flags;
   /// RuntimeError from read_calibration or check_calibration_fits.
   std::optional<Calibration> resolve(int width, int height, const std::string& image = "the image") const;
 
  private:
-  std::string file_;
+  std::vector<std::string> files_;
   std::optional<double> focal_, baseline_, cx_, cy_, doffs_;
   std::string units_;
 };

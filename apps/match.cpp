@@ -219,7 +219,7 @@ void MatchCommand::run() const {
     return;
   }
   std::vector<std::string> inputs = {left_, right_};
-  if (!calibration_flags_.file().empty()) inputs.push_back(calibration_flags_.file());
+  for (const std::string& file : calibration_flags_.files()) inputs.push_back(file);
   const DisparityFormat format = disparity_format_for(output_, format_);
   check_output_path(output_, inputs, "disparity output");
   DisparityFormat right_format = format;

@@ -385,7 +385,7 @@ void StreamCommand::run() const {
   // name and leaves a file of other names (a hard link) as it was, so comparing canonical names
   // suffices; the preview video is written in place and so is compared by file.
   std::vector<std::string> inputs = source->input_files();
-  if (!calibration_flags_.file().empty()) inputs.push_back(calibration_flags_.file());
+  for (const std::string& file : calibration_flags_.files()) inputs.push_back(file);
   const InputNames input_names(inputs);
   const int first_index = source->position();
   const int count = source->frame_count();

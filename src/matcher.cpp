@@ -98,12 +98,12 @@ struct Matcher::Impl {
   std::string notice;  // how Backend::Auto fell back, if it did
 #ifdef MCTSTEREO_HAVE_OPENCL
   std::unique_ptr<detail::opencl::Pipeline> device;  // the opencl backend's driver and buffers
+#endif
   // The float map is made when disparity() asks for it, from the last frame's map: most callers
   // take one of the two forms, and the conversion is a full pass over W x H (5 % of a realtime
   // frame at 640 x 480).
   bool float_current = true;                         // out_float holds the last frame's map
   const Plane<std::int16_t>* float_source = nullptr;  // host backends: the last frame's internal map
-#endif
 
   std::vector<Plane<std::uint8_t>> full_gray[2];  // input size, then each working-scale reduction
   std::vector<Level> levels;                      // levels[0] is the finest (working scale)

@@ -5,3 +5,4 @@
 #include "mctstereo/image.hpp"
 #include "mctstereo/matcher.hpp"
 #include "mctstereo/params.hpp"
+#include "mctstereo/version.hpp"

@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -321,6 +323,140 @@ TEST_F(Calibrations, IncompleteOrBadFlagsNameTheFlag) {
   EXPECT_THROW(resolve_flags({"--focal", "-7", "--baseline", "1"}, 640, 480), CLI::ParseError);
   const std::string calib = write("calib.txt", kAdirondack);
   EXPECT_THROW(resolve_flags({"--calib", calib}, 640, 480), RuntimeError);  // another size
+}
+
+
+// ---- Real rigs: the files OpenCV's stereo_calib sample writes (samples/cpp/stereo_calib.cpp):
+// intrinsics.yml with M1 D1 M2 D2 and extrinsics.yml with R T R1 R2 P1 P2 Q, no image size, the
+// distortion of CALIB_RATIONAL_MODEL (8 coefficients, a 1x8 row).
+
+// A rig of two slightly different cameras, the right one 0.12 to the right and turned a little.
+struct SampleRig {
+  cv::Mat M1 = (cv::Mat_<double>(3, 3) << 702.1, 0, 318.4, 0, 701.7, 241.2, 0, 0, 1);
+  cv::Mat M2 = (cv::Mat_<double>(3, 3) << 699.3, 0, 322.9, 0, 699.0, 238.6, 0, 0, 1);
+  cv::Mat R = (cv::Mat_<double>(3, 3) << 0.99998, -0.0049, 0.0032, 0.0049, 0.99998, 0.0011, -0.0032, -0.0011, 0.99999);
+  cv::Mat T = (cv::Mat_<double>(3, 1) << -0.1198, 0.0004, -0.0011);
+  cv::Mat distortion(int n) const {
+    cv::Mat d = cv::Mat::zeros(1, n, CV_64F);
+    const double values[14] = {-0.12, 0.031, 0.0004, -0.0002, 0.002, 0.0011, -0.0006, 0.0003,
+                               0.0001, -0.0001, 0.00005, -0.00004, 0.0002, -0.0001};
+    for (int i = 0; i < n; ++i) d.at<double>(0, i) = values[i];
+    return d;
+  }
+  // What stereoRectify makes of it for images of `size` (as the sample does, alpha -1 aside).
+  void rectify(cv::Size size, int n, cv::Mat& R1, cv::Mat& R2, cv::Mat& P1, cv::Mat& P2, cv::Mat& Q) const {
+    cv::stereoRectify(M1, distortion(n), M2, distortion(n), size, R, T, R1, R2, P1, P2, Q, cv::CALIB_ZERO_DISPARITY, 0.0);
+  }
+};
+
+TEST_F(Calibrations, StereoCalibSampleFilesGivenTwiceAreReadAsOne) {
+  const SampleRig rig;
+  cv::Mat R1, R2, P1, P2, Q;
+  rig.rectify({640, 480}, 8, R1, R2, P1, P2, Q);
+  const std::string intrinsics = write_storage("intrinsics.yml", [&](cv::FileStorage& f) {
+    f << "M1" << rig.M1 << "D1" << rig.distortion(8) << "M2" << rig.M2 << "D2" << rig.distortion(8);
+  });
+  const std::string extrinsics = write_storage("extrinsics.yml", [&](cv::FileStorage& f) {
+    f << "R" << rig.R << "T" << rig.T << "R1" << R1 << "R2" << R2 << "P1" << P1 << "P2" << P2 << "Q" << Q;
+  });
+  for (const auto& order : {std::vector<std::string>{"--calib", intrinsics, "--calib", extrinsics},
+                            std::vector<std::string>{"--calib", extrinsics, "--calib", intrinsics}}) {
+    const std::optional<Calibration> c = resolve_flags(order, 640, 480);
+    ASSERT_TRUE(c.has_value());
+    EXPECT_TRUE(c->needs_rectification);
+    EXPECT_EQ(c->width, 640);  // the pair's: the files have no size
+    EXPECT_EQ(c->height, 480);
+    EXPECT_EQ(cv::norm(c->K1, rig.M1), 0.0);
+    EXPECT_EQ(cv::norm(c->K2, rig.M2), 0.0);
+    EXPECT_EQ(c->D1.total(), 8u);
+    EXPECT_EQ(cv::norm(c->P2, P2), 0.0);  // the file's projections, not recomputed
+    EXPECT_DOUBLE_EQ(c->geometry.focal, P1.at<double>(0, 0));
+    EXPECT_NEAR(c->geometry.baseline, cv::norm(rig.T), 1e-9);
+    EXPECT_NE(c->source.find(" + "), std::string::npos) << c->source;  // both files name it
+    const Rectifier rectifier(*c, 640, 480);  // the maps need the size the file lacks
+    EXPECT_DOUBLE_EQ(rectifier.geometry().focal, c->geometry.focal);
+  }
+  // Read alone, the intrinsics say what they lack.
+  expect_error(intrinsics, {"intrinsics.yml", "'P1'", "R and T"});
+}
+
+TEST_F(Calibrations, AMergedSampleFileWithoutSizeTakesThePairsSize) {
+  // The sample's two files merged into one, as rigs often ship them: the raw cameras and R, T only,
+  // so rectifying (stereoRectify) needs the image size, which the pair gives.
+  const SampleRig rig;
+  const std::string merged = write_storage("stereo.yml", [&](cv::FileStorage& f) {
+    f << "M1" << rig.M1 << "D1" << rig.distortion(5) << "M2" << rig.M2 << "D2" << rig.distortion(5);
+    f << "R" << rig.R << "T" << rig.T;
+  });
+  expect_error(merged, {"stereo.yml", "'image_width'", "image size"});  // no pair, no size
+  const std::optional<Calibration> c = resolve_flags({"--calib", merged}, 800, 600);
+  ASSERT_TRUE(c.has_value());
+  EXPECT_EQ(c->width, 800);
+  EXPECT_EQ(c->height, 600);
+  EXPECT_TRUE(c->needs_rectification);
+  cv::Mat R1, R2, P1, P2, Q;
+  rig.rectify({800, 600}, 5, R1, R2, P1, P2, Q);
+  EXPECT_NEAR(cv::norm(c->P1, P1), 0.0, 1e-9);
+  EXPECT_NEAR(c->geometry.focal, P1.at<double>(0, 0), 1e-9);
+  // A file with its own size keeps it: another pair size is refused.
+  const std::string sized = write_storage("sized.yml", [&](cv::FileStorage& f) {
+    f << "image_width" << 640 << "image_height" << 480;
+    f << "M1" << rig.M1 << "D1" << rig.distortion(5) << "M2" << rig.M2 << "D2" << rig.distortion(5);
+    f << "R" << rig.R << "T" << rig.T;
+  });
+  EXPECT_EQ(resolve_flags({"--calib", sized}, 640, 480)->width, 640);
+  EXPECT_THROW(resolve_flags({"--calib", sized}, 800, 600), RuntimeError);
+}
+
+TEST_F(Calibrations, DistortionOf4To14CoefficientsAndKOrMNames) {
+  const SampleRig rig;
+  for (int n : {4, 5, 8, 12, 14}) {
+    for (const bool m_names : {true, false}) {
+      const std::string path = write_storage("d" + std::to_string(n) + (m_names ? "m" : "k") + ".yml",
+                                             [&](cv::FileStorage& f) {
+                                               f << (m_names ? "M1" : "K1") << rig.M1 << "D1" << rig.distortion(n);
+                                               f << (m_names ? "M2" : "K2") << rig.M2 << "D2" << rig.distortion(n);
+                                               f << "R" << rig.R << "T" << rig.T;
+                                             });
+      const Calibration c = read_calibration(path, 640, 480);
+      EXPECT_EQ(c.D1.total(), static_cast<std::size_t>(n)) << path;
+      EXPECT_EQ(c.D2.total(), static_cast<std::size_t>(n)) << path;
+      EXPECT_EQ(cv::norm(c.K1, rig.M1), 0.0) << path;
+      cv::Mat R1, R2, P1, P2, Q;
+      rig.rectify({640, 480}, n, R1, R2, P1, P2, Q);
+      EXPECT_NEAR(cv::norm(c.P2, P2), 0.0, 1e-9) << path;
+      EXPECT_NO_THROW(Rectifier(c, 640, 480)) << path;
+    }
+  }
+  for (int n : {3, 6, 9}) {
+    const std::string path = write_storage("bad" + std::to_string(n) + ".yml", [&](cv::FileStorage& f) {
+      f << "M1" << rig.M1 << "D1" << cv::Mat::zeros(1, n, CV_64F) << "M2" << rig.M2 << "D2" << rig.distortion(5);
+      f << "R" << rig.R << "T" << rig.T;
+    });
+    expect_error(path, {"'D1'", "4, 5, 8, 12, 14"});
+  }
+}
+
+TEST_F(Calibrations, CalibTwiceOnlyCombinesOpenCvFiles) {
+  const std::string middlebury = write("calib.txt", kAdirondack);
+  const std::string projections = write_storage("p.yml", [](cv::FileStorage& f) { f << "P1" << kP1 << "P2" << kP2; });
+  try {
+    (void)resolve_flags({"--calib", middlebury, "--calib", projections}, 2880, 1988);
+    ADD_FAILURE() << "no error";
+  } catch (const RuntimeError& e) {
+    EXPECT_NE(std::string(e.what()).find("only OpenCV FileStorage files"), std::string::npos) << e.what();
+  }
+  // One --calib takes one file: a second word is not swallowed.
+  CLI::App app;
+  CalibrationFlags flags;
+  flags.add_to(app);
+  std::vector<std::string> positional;
+  app.add_option("pair", positional);
+  std::vector<std::string> args{"--calib", projections, "left.png", "right.png"};
+  std::reverse(args.begin(), args.end());
+  app.parse(args);
+  EXPECT_EQ(flags.files(), std::vector<std::string>{projections});
+  EXPECT_EQ(positional, (std::vector<std::string>{"left.png", "right.png"}));
 }
 
 }  // namespace

@@ -1,0 +1,55 @@
+"""mctstereo: dense stereo matching on the (modified) census transform, coarse to fine.
+
+    import mctstereo
+    matcher = mctstereo.Matcher(width, height, mctstereo.preset("balanced", num_disparities=64))
+    disparity = matcher.compute(left, right)   # numpy uint8 H x W or H x W x 3 (BGR); float32, NaN invalid
+    q4 = matcher.disparity_q4()                # int16, 16 x d, matcher.invalid_q4 where invalid
+    confidence = matcher.confidence()          # float32 in [0, 1], None for box aggregation
+
+Images are read in place when their pixels are packed within a row (any row stride: OpenCV images
+and their ROIs); other layouts are copied once. compute() releases the GIL; a matcher used by
+several threads serialises its frames, matchers of their own run in parallel.
+"""
+
+from ._mctstereo import (  # noqa: F401
+    Aggregation,
+    CensusKind,
+    FillMode,
+    Matcher,
+    MeanKernel,
+    PointCloud,
+    StereoGeometry,
+    StereoParams,
+    __version__,
+    depth_from_disparity,
+    estimate_memory,
+    have_opencl,
+    opencl_devices,
+    point_cloud_from_disparity,
+    preset,
+    preset_description,
+    preset_names,
+    relative_depth_from_disparity,
+    version,
+)
+
+__all__ = [
+    "Aggregation",
+    "CensusKind",
+    "FillMode",
+    "Matcher",
+    "MeanKernel",
+    "PointCloud",
+    "StereoGeometry",
+    "StereoParams",
+    "depth_from_disparity",
+    "estimate_memory",
+    "have_opencl",
+    "opencl_devices",
+    "point_cloud_from_disparity",
+    "preset",
+    "preset_description",
+    "preset_names",
+    "relative_depth_from_disparity",
+    "version",
+]
