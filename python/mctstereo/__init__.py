@@ -11,7 +11,16 @@ and their ROIs); other layouts are copied once. compute() releases the GIL; a ma
 several threads serialises its frames, matchers of their own run in parallel.
 """
 
-from ._mctstereo import (  # noqa: F401
+import os as _os
+
+# OpenMP (libgomp) threads spin up to 300,000 times at every barrier before they sleep; on a CPU
+# shared with other work that spinning takes the time slices of the thread they wait for (2
+# threads became 15 times slower than 1 under load). libgomp reads its settings once, when the
+# extension loads it: a short spin, unless the user chose a setting of their own.
+if "GOMP_SPINCOUNT" not in _os.environ and "OMP_WAIT_POLICY" not in _os.environ:
+    _os.environ["GOMP_SPINCOUNT"] = "10000"
+
+from ._mctstereo import (  # noqa: F401,E402
     Aggregation,
     CensusKind,
     FillMode,
