@@ -307,7 +307,8 @@ class BenchRun:
                 rec["stages"] = {k: st.num(k) for k in st.keys()}
             elif rec["backend"] is not None:
                 st = r.obj("stage_median_ms")
-                rec["stages"] = {k: st.num(k) for k in STAGES + ["frame"]}
+                # Runs from before the weighted median had a slot of its own hold it in refine.
+                rec["stages"] = {k: st.num(k) if k != "wmedian" or st.has(k) else 0.0 for k in STAGES + ["frame"]}
             self.records.append(rec)
         m = doc.obj("memory")
         self.peak_resident = m.num("peak_resident_bytes")
