@@ -1,6 +1,8 @@
 # StereoParams: every field, presets, validation errors as ValueError with the library's message.
 import copy
+import pathlib
 import pickle
+import re
 
 import pytest
 
@@ -13,6 +15,17 @@ FIELDS = [
     "aggregation", "sgm_p1", "sgm_p2", "sgm_p2_k", "prior_size", "finest_search_radius", "sgm_max_band",
     "working_scale",
 ]
+
+
+def test_the_binding_has_every_field_of_the_header():
+    # A field added to include/mctstereo/params.hpp needs its line in python/mctstereo_module.cpp.
+    header = (pathlib.Path(__file__).resolve().parents[2] / "include" / "mctstereo" / "params.hpp").read_text()
+    body = header[header.index("struct StereoParams {"):]
+    body = body[:body.index("\n};")]
+    declared = re.findall(r"^  (?:int|bool|double|float|CensusKind|MeanKernel|FillMode|Aggregation)\s+(\w+)\s*=", body, re.M)
+    assert len(declared) >= 20
+    assert sorted(declared) == sorted(mctstereo._mctstereo._PARAM_FIELDS)
+    assert sorted(declared) == sorted(FIELDS)
 
 
 def test_every_field_reads_and_writes():
