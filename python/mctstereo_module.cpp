@@ -260,6 +260,10 @@ PYBIND11_MODULE(_mctstereo, m) {
   MCTSTEREO_FIELD(prior_size, "Coarse neighbourhood spanning the search: 3 or 5");
   MCTSTEREO_FIELD(finest_search_radius, "Search radius at the finest level, [-1, 16], -1 = search_radius");
   MCTSTEREO_FIELD(sgm_max_band, "SGM candidates per pixel below the coarsest level, [1, 255]");
+  MCTSTEREO_FIELD(weighted_median, "Colour-weighted median after the fill at the finest level, then a 3x3 median");
+  MCTSTEREO_FIELD(wm_radius, "Weighted median window radius, [1, 15] pixels");
+  MCTSTEREO_FIELD(wm_step, "Weighted median sample step, [1, wm_radius] pixels");
+  MCTSTEREO_FIELD(wm_sigma, "Weighted median colour scale of the weights, [1, 255] levels");
   MCTSTEREO_FIELD(working_scale, "Working scale: 1, 2 or 4");
 #undef MCTSTEREO_FIELD
   m.attr("_PARAM_FIELDS") = *fields;

@@ -13,7 +13,7 @@ FIELDS = [
     "coarse_shd_window", "pyramid_levels", "search_radius", "subpixel", "median_size", "lr_check",
     "lr_threshold", "speckle_size", "uniqueness_ratio", "fill", "post_median_size", "refine_all_levels",
     "aggregation", "sgm_p1", "sgm_p2", "sgm_p2_k", "prior_size", "finest_search_radius", "sgm_max_band",
-    "working_scale",
+    "weighted_median", "wm_radius", "wm_step", "wm_sigma", "working_scale",
 ]
 
 
@@ -45,6 +45,11 @@ def test_every_field_reads_and_writes():
     assert p.mct_kernel == mctstereo.MeanKernel.MEAN
     p.finest_search_radius = -1
     assert p.finest_radius() == p.search_radius
+    assert mctstereo.preset("balanced").weighted_median and not mctstereo.preset("realtime").weighted_median
+    p.wm_step = 20
+    with pytest.raises(ValueError, match="wm_step = 20 must be in"):
+        p.validate()
+    p.wm_step = 3
     with pytest.raises(ValueError, match="unknown value 'sgm6' .*box, sgm4, sgm8"):
         p.aggregation = mctstereo.Aggregation("sgm6")
     with pytest.raises(TypeError):
