@@ -267,6 +267,15 @@ PYBIND11_MODULE(_mctstereo, m) {
   MCTSTEREO_FIELD(working_scale, "Working scale: 1, 2 or 4");
 #undef MCTSTEREO_FIELD
   m.attr("_PARAM_FIELDS") = *fields;
+  // The fields as a dict, enums by their program names: to_dict() and pickling's state.
+  const auto as_dict = [fields](py::object self) {
+    py::dict d;
+    for (const auto& f : *fields) {
+      py::object v = self.attr(f.c_str());
+      d[f.c_str()] = py::hasattr(v, "label") ? v.attr("label") : v;
+    }
+    return d;
+  };
   params.def(py::init([fields](const py::kwargs& kwargs) {
                auto p = std::make_unique<StereoParams>();
                py::object self = py::cast(p.get(), py::return_value_policy::reference);
@@ -316,25 +325,9 @@ PYBIND11_MODULE(_mctstereo, m) {
            })
       .def("__copy__", [](const StereoParams& p) { return StereoParams(p); })
       .def("__deepcopy__", [](const StereoParams& p, py::dict) { return StereoParams(p); }, py::arg("memo"))
-      .def("to_dict",
-           [fields](py::object self) {
-             py::dict d;
-             for (const auto& f : *fields) {
-               py::object v = self.attr(f.c_str());
-               d[f.c_str()] = py::hasattr(v, "label") ? v.attr("label") : v;
-             }
-             return d;
-           },
-           "The fields as a dict (enums by their program names)")
+      .def("to_dict", as_dict, "The fields as a dict (enums by their program names)")
       .def(py::pickle(
-          [fields](py::object self) {
-            py::dict d;
-            for (const auto& f : *fields) {
-              py::object v = self.attr(f.c_str());
-              d[f.c_str()] = py::hasattr(v, "label") ? v.attr("label") : v;
-            }
-            return d;
-          },
+          as_dict,
           [fields](py::dict d) {
             StereoParams p;
             py::object self = py::cast(&p, py::return_value_policy::reference);
