@@ -780,7 +780,7 @@ void print_sparsification_table(const Evaluation& ev) {
       if (const auto& c = ev.results[si][m][ev.baseline].sparsification) row(ev.scenes[si].scene.name, ev.methods[m].name, *c);
   if (ev.scenes.size() > 1)
     for (std::size_t m : with) row("average", ev.methods[m].name, mean_sparsification(ev.column(m, ev.baseline)));
-  std::printf("the confidence (Matcher::confidence, docs/PIPELINE.md) orders the pixels; box presets and OpenCV have "
+  std::printf("the confidence (Matcher::confidence, docs/PIPELINE.md) orders the pixels; OpenCV's matchers have "
               "none.\n");
 }
 
@@ -1240,7 +1240,8 @@ void EvalCommand::run() const {
       const auto frames_of = [&](std::size_t k) { return k == baseline_step ? repeat_ + 1 : 1; };
       if (!method.peer) {
         const StereoParams params = preset_params(method, s);
-        Matcher matcher = run_flags_.make_matcher(s.left.cols, s.left.rows, params);
+        // Every preset scores its confidence map too (box presets make it only when asked).
+        Matcher matcher = run_flags_.make_matcher(s.left.cols, s.left.rows, params, false, true);
         ev.backend = matcher.backend();  // what --backend auto resolved to
         ev.simd_target = matcher.simd_target();
         ev.threads = matcher.threads();

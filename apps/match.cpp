@@ -27,8 +27,8 @@ constexpr const char* kMatchFooter = R"(Units and output scaling:
               q4: value = 16 x (d - min + 1), so d = value / 16 + min - 1; negative d allowed.
   --color   8-bit turbo colormap over the fixed range [min, min + N - 1], black = invalid.
   --right-output holds the right view's map: the right pixel x matches the left pixel x + d.
-  --confidence  (SGM aggregation) per pixel in [0, 1]: the winner's margin over the best sum outside
-            d-1..d+1 times the left-right agreement; 0 where the checks dropped the pixel and the
+  --confidence  per pixel in [0, 1]: the winner's margin over the best cost (SGM: path sum)
+            outside d-1..d+1 times the left-right agreement; 0 where the checks dropped the pixel and the
             fill guessed it. .pfm float, .png 8-bit round(255 c).
 Depth and point clouds (--depth, --ply, --obj) need a calibration: --calib FILE, or --focal and
 --baseline (flags override the file). Z = focal x baseline / (d + doffs), X = (x - cx) Z / focal,
@@ -156,7 +156,7 @@ MatchCommand::MatchCommand(CLI::App& parent)
   app.add_option("--right-output", right_output_, "also write the right view's disparity map (same formats)");
   app.add_option("--color", preview_, "write a colour preview (turbo colormap, invalid black), e.g. preview.png");
   app.add_option("--confidence", confidence_,
-                 "write the confidence map of the left disparity (SGM aggregation): .pfm (float, 0 to 1) or .png "
+                 "write the confidence map of the left disparity: .pfm (float, 0 to 1) or .png "
                  "(8-bit, 0 to 255)");
   app.add_option("--repeat", repeat_, "match the pair N times and report the median frame time")
       ->check(CLI::Range(1, 100000))
@@ -232,10 +232,6 @@ void MatchCommand::run() const {
     check_output_path(preview_, inputs, "colour preview");
   }
   if (!confidence_.empty()) {
-    if (!requested.sgm())
-      throw UsageError("--confidence " + in_quotes(confidence_) +
-                       ": the confidence map needs SGM aggregation (--aggregation sgm4 or sgm8, or the presets "
-                       "balanced, quality, sgm-full); this run has --aggregation box");
     check_confidence_path(confidence_);
     check_output_path(confidence_, inputs, "confidence map");
   }
@@ -297,7 +293,8 @@ void MatchCommand::run() const {
   if (calibration && !depth_output_.empty() && depth_format == DepthFormat::PngMillimetres)
     (void)millimetres_per_unit(calibration->geometry.units);  // a unit a PNG of millimetres cannot convert
 
-  Matcher matcher = run_flags_.make_matcher(left.cols, left.rows, requested, !right_output_.empty());
+  Matcher matcher =
+      run_flags_.make_matcher(left.cols, left.rows, requested, !right_output_.empty(), !confidence_.empty());
   const StereoParams& params = matcher.params();
 
   // Stage times per frame; with --repeat each stage reports its median over the frames.

@@ -237,18 +237,20 @@ Backend RunFlags::parsed_backend() const {
   return parsed;
 }
 
-MatcherOptions RunFlags::matcher_options(bool compute_right) const {
+MatcherOptions RunFlags::matcher_options(bool compute_right, bool compute_confidence) const {
   MatcherOptions options;
   options.threads = threads;
   options.compute_right = compute_right;
+  options.compute_confidence = compute_confidence;
   options.device = device;
   return options;
 }
 
-Matcher RunFlags::make_matcher(int width, int height, const StereoParams& params, bool compute_right) const {
+Matcher RunFlags::make_matcher(int width, int height, const StereoParams& params, bool compute_right,
+                               bool compute_confidence) const {
   const Backend requested = parsed_backend();
   try {
-    Matcher matcher(width, height, params, requested, matcher_options(compute_right));
+    Matcher matcher(width, height, params, requested, matcher_options(compute_right, compute_confidence));
     if (!matcher.notice().empty()) std::cerr << "mctstereo: note: " << matcher.notice() << "\n";
     return matcher;
   } catch (const std::invalid_argument& e) {

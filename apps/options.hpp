@@ -56,12 +56,13 @@ struct RunFlags {
   /// UsageError for an unknown backend, or --device with a backend that has none.
   Backend parsed_backend() const;
   /// --threads and --device as matcher options.
-  MatcherOptions matcher_options(bool compute_right = false) const;
+  MatcherOptions matcher_options(bool compute_right = false, bool compute_confidence = false) const;
   /// The matcher of these flags. Prints the notice of --backend auto ("mctstereo: note: ...") on
   /// stderr when it fell back to the cpu backend. RuntimeError naming the flag when the OpenCL
   /// device cannot be had (none installed, --device names none, a kernel fails to build, too
   /// little device memory); std::invalid_argument (usage) for bad parameters.
-  Matcher make_matcher(int width, int height, const StereoParams& params, bool compute_right = false) const;
+  Matcher make_matcher(int width, int height, const StereoParams& params, bool compute_right = false,
+                       bool compute_confidence = false) const;
 };
 
 /// The help text of --backend and --device.

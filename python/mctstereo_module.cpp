@@ -358,15 +358,17 @@ PYBIND11_MODULE(_mctstereo, m) {
 
   // ---- Matcher.
   py::class_<PyMatcher>(m, "Matcher",
-                        "Matcher(width, height, params=None, backend='cpu', threads=0, device='', compute_right=False): "
+                        "Matcher(width, height, params=None, backend='cpu', threads=0, device='', compute_right=False, "
+                        "compute_confidence=False): "
                         "allocates everything once for one image size; compute(left, right) per frame. params None is "
                         "preset('balanced'), the program's default. backend: 'reference', 'cpu', 'opencl' or 'auto'.")
       .def(py::init([](int width, int height, std::optional<StereoParams> p, const std::string& backend, int threads,
-                       const std::string& device, bool compute_right) {
+                       const std::string& device, bool compute_right, bool compute_confidence) {
              MatcherOptions options;
              options.threads = threads;
              options.device = device;
              options.compute_right = compute_right;
+             options.compute_confidence = compute_confidence;
              const Backend b = parse_backend(backend);
              const StereoParams used = p ? *p : preset("balanced");
              auto pm = std::make_unique<PyMatcher>();
@@ -377,7 +379,8 @@ PYBIND11_MODULE(_mctstereo, m) {
              return pm;
            }),
            py::arg("width"), py::arg("height"), py::arg("params") = py::none(), py::arg("backend") = "cpu",
-           py::arg("threads") = 0, py::arg("device") = "", py::arg("compute_right") = false)
+           py::arg("threads") = 0, py::arg("device") = "", py::arg("compute_right") = false,
+           py::arg("compute_confidence") = false)
       .def(
           "compute",
           [](PyMatcher& self, const py::object& left_object, const py::object& right_object, const std::string& channels) {
@@ -413,7 +416,8 @@ PYBIND11_MODULE(_mctstereo, m) {
       .def(
           "confidence",
           [](PyMatcher& self) { return last_map<float>(self, [](Matcher& m) { return m.confidence(); }); },
-          "The last frame's confidence, float32 H x W in [0, 1]; None for box aggregation")
+          "The last frame's confidence, float32 H x W in [0, 1]; None for box aggregation unless "
+          "compute_confidence=True")
       .def(
           "right_disparity_q4",
           [](PyMatcher& self) {

@@ -240,6 +240,10 @@ class EvalRun:
                          "density": m.num("density"), "ms": m.num("ms", nullable=True)}
                 for r in REGIONS:
                     entry[r] = m.num(r, nullable=True)
+                if m.has("sparsification"):
+                    sp = m.obj("sparsification")
+                    entry["sparsification"] = list(zip([f.value for f in sp.array("fractions")],
+                                                       [b.value for b in sp.array("percent_bad")]))
                 if radiometric:
                     entry["steps"] = {st.text("step"): st.num("average_percent_bad", nullable=True)
                                       for st in m.array("steps")}
@@ -816,6 +820,7 @@ def quality_2003(report, ev):
     rows = [[method_name(m)] + [pct(ev.methods[m]["average"][k]) for k, _ in keys] for m in ev.method_order]
     report.add(table(["method"] + [label for _, label in keys], rows))
     report.add("Same command and run as the table above.")
+    sparsification_section(report, ev, "Middlebury 2003")
     preset_parameters(report, ev)
     losses_quality(report, ev, "Middlebury 2003", keys)
 
@@ -945,6 +950,30 @@ def losses_quality(report, ev, set_name, metric_keys):
                                   + "; ".join(metric_wins) + caveat + "."))
 
 
+def sparsification_section(report, ev, set_name):
+    """Bad pixels of the most confident fractions of the pixels, per method, mean over the scenes."""
+    with_curve = [m for m in ev.method_order
+                  if all(s["methods"][m].get("sparsification") for s in ev.scenes)]
+    if not with_curve:
+        return
+    fractions = [f for f, _ in ev.scenes[0]["methods"][with_curve[0]]["sparsification"]]
+    report.add(f"### Confidence: sparsification on {set_name}")
+    report.add("`Matcher::confidence()` (docs/PIPELINE.md, \"Confidence\") orders the pixels that have ground truth "
+               "('all' region); each column gives the percent bad (> "
+               f"{number(ev.threshold)} px) of the most confident fraction of them, mean over the scenes. A "
+               "confidence that ranks well leaves few errors in its confident part; the last column over the first "
+               "is the share of the errors the most confident half keeps. Box presets make the map with "
+               "`MatcherOptions::compute_confidence`, as `eval` does; OpenCV's matchers have none.")
+    rows = []
+    for m in with_curve:
+        curve = [sum(dict(s["methods"][m]["sparsification"])[f] for s in ev.scenes) / len(ev.scenes)
+                 for f in fractions]
+        share = curve[-1] / curve[0] if curve[0] else float("nan")
+        rows.append([method_name(m)] + [pct(v) for v in curve] + [f"{share:.2f}"])
+    report.add(table(["method"] + [f"{round(100 * f)} %" for f in fractions] + ["half / all"], rows))
+    report.add("Same command and run as the first table of this section.")
+
+
 def quality_2005(report, ev):
     report.add("## Quality: Middlebury 2005/2006")
     sources = sorted({s["mask_source"] for s in ev.scenes})
@@ -970,6 +999,7 @@ def quality_2005(report, ev):
         rows.append([method_name(m)] + [region_cells(s, s["methods"][m]) for s in ev.scenes] +
                     [pct(ev.methods[m]["average_percent_bad"]), pct(a["d1"]), density(a["density"]), ms(a["ms"])])
     report.add(table(head, rows))
+    sparsification_section(report, ev, "Middlebury 2005/2006")
     losses_quality(report, ev, "Middlebury 2005/2006", [("bad_0_5", "bad 0.5"), ("bad_2", "bad 2"),
                                                         ("avgerr", "avgerr"), ("rms", "rms"), ("d1", "D1 nonocc")])
 

@@ -95,6 +95,7 @@ struct Matcher::Impl {
   const StageTable* stages;
   int threads = 1;
   bool need_right = false;
+  bool want_confidence = false;  // band SGM always, box aggregation when the options ask for it
   std::string notice;  // how Backend::Auto fell back, if it did
 #ifdef MCTSTEREO_HAVE_OPENCL
   std::unique_ptr<detail::opencl::Pipeline> device;  // the opencl backend's driver and buffers
@@ -115,10 +116,10 @@ struct Matcher::Impl {
   detail::ColourPlanes wm_colour;
   detail::MatchScratch match_scratch;
   detail::SpeckleScratch speckle_scratch;
-  // Band SGM: the cost and sum storage every level's volume uses, the scratch of its stages, the
-  // finest level's winner margins and confidence, and the confidence at the output size.
+  // Band SGM: the cost and sum storage every level's volume uses and the scratch of its stages.
   std::unique_ptr<std::uint16_t[], detail::FreeDeleter> sgm_cost, sgm_sum;
   detail::SgmScratch sgm_scratch;
+  // The finest level's winner margins and confidence, and the confidence at the output size.
   Plane<std::uint8_t> margin, confidence_q8;
   Plane<float> out_confidence;
   bool confidence_current = false;
@@ -138,11 +139,12 @@ struct Matcher::Impl {
     stages = backend == Backend::Reference ? &kReferenceStages : &kCpuStages;
     threads = backend == Backend::Reference ? 1 : (o.threads > 0 ? o.threads : omp_get_max_threads());
     need_right = p.lr_check || o.compute_right;
+    want_confidence = p.sgm() || o.compute_confidence;
     if (backend == Backend::OpenCL) {
       // The device holds the pyramid; the host keeps only the maps the caller reads.
       for (int v = 0; v < (o.compute_right ? 2 : 1); ++v) out_q4[v].reset(w, h);
       out_float.reset(w, h);
-      if (p.sgm()) {
+      if (want_confidence) {
         // The confidence comes down at the working scale and is replicated here.
         int cw = w, ch = h;
         for (int s = 1; s < p.working_scale; s *= 2) cw = (cw + 1) / 2, ch = (ch + 1) / 2;
@@ -193,6 +195,8 @@ struct Matcher::Impl {
       sgm_scratch.bytes_per_thread =
           (stages->sgm_scratch_bytes(levels[0].width, levels[0].height, plan.sgm_max_stride) + 63) / 64 * 64;
       sgm_scratch.data = detail::allocate_aligned<std::uint8_t>(sgm_scratch.bytes_per_thread * threads);
+    }
+    if (want_confidence) {
       margin.reset(levels[0].width, levels[0].height);
       confidence_q8.reset(levels[0].width, levels[0].height);
       out_confidence.reset(w, h);
@@ -288,7 +292,7 @@ struct Matcher::Impl {
     if (L.speckle > 1)
       for (int v = 0; v < kept; ++v) stages->remove_speckles(L.disparity[v], L.speckle, 16, speckle_scratch);
     // The confidence of the final map: what survived the checks, before the fill guesses.
-    if (finest && params.sgm())
+    if (finest && want_confidence)
       stages->confidence(margin, L.disparity[0], need_right ? &L.disparity[1] : nullptr, params.lr_threshold,
                          confidence_q8);
     for (int v = 0; v < kept; ++v) stages->fill_invalid(L.disparity[v], params.fill);
@@ -445,7 +449,8 @@ struct Matcher::Impl {
         const auto ranges = detail::SearchRanges::around(prior, L.dmin, L.dmax, L.radius);
         const detail::MatchConfig match{v == 0 ? -1 : +1, L.shd_window, params.subpixel && l == 0,
                                         params.uniqueness_ratio};
-        stages->match(L.codes[v], L.codes[1 - v], ranges, match, match_scratch, L.disparity[v]);
+        Plane<std::uint8_t>* margins = v == 0 && l == 0 && want_confidence ? &margin : nullptr;
+        stages->match(L.codes[v], L.codes[1 - v], ranges, match, match_scratch, L.disparity[v], margins);
       }
       slot_ms[kMatch] += clock.lap_ms();
       refine_level(L, l == 0, clock);
@@ -495,7 +500,7 @@ MapView<const float> Matcher::disparity() const {
   return {p.row(0), p.width(), p.height(), p.stride()};
 }
 MapView<const float> Matcher::confidence() const {
-  if (!impl_->params.sgm() || !impl_->has_frame) return {};
+  if (!impl_->want_confidence || !impl_->has_frame) return {};
 #ifdef MCTSTEREO_HAVE_OPENCL
   // The opencl backend brings the confidence down only when it is asked for.
   if (impl_->device && !impl_->confidence_current) impl_->device->download_confidence(impl_->confidence_q8);
@@ -589,11 +594,13 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   total += threads * detail::cpu::match_scratch_bytes(w0, plan.max_range, std::max(params.shd_window, params.coarse_shd_window));
   if (params.speckle_size > 0) total += Plane<std::int32_t>::bytes_for(w0, h0) + static_cast<std::size_t>(w0) * h0 * 4;
   if (params.sgm()) {
-    // The cost and sum storage every level shares, the stages' scratch, margins, confidence.
+    // The cost and sum storage every level shares and the stages' scratch.
     total += 2 * plan.sgm_entries * sizeof(std::uint16_t);
     total += threads * ((detail::cpu::sgm_scratch_bytes(w0, h0, plan.sgm_max_stride) + 63) / 64 * 64);
-    total += 2 * Plane<std::uint8_t>::bytes_for(w0, h0) + Plane<float>::bytes_for(width, height);
   }
+  // Margins, confidence at the working scale and at the output size.
+  if (params.sgm() || options.compute_confidence)
+    total += 2 * Plane<std::uint8_t>::bytes_for(w0, h0) + Plane<float>::bytes_for(width, height);
   const int outputs = options.compute_right ? 2 : 1;
   total += outputs * map_bytes(width, height) * (scale_steps > 0 ? 2 : 1) + Plane<float>::bytes_for(width, height);
   return total;

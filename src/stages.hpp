@@ -246,20 +246,24 @@ inline Interval sgm_band_at(const Plane<std::int16_t>* coarse, const SgmBandConf
   return {lo, lo > hi ? lo - 1 : std::min(hi, lo + config.max_band - 1)};
 }
 
-/// The SGM winner's margin 255 (S2 - S1) / S2 (second == INT_MAX: no candidate outside
-/// best - 1 .. best + 1; then, or when S2 = 0, 0).
-inline std::uint8_t sgm_margin(int best_sum, int second) {
-  return second != std::numeric_limits<int>::max() && second > 0
-             ? static_cast<std::uint8_t>(255 * (second - best_sum) / second)
-             : 0;
+/// The winner's margin 255 (S2 - S1) / S2 (box costs or SGM sums; S2 = 0: 0). second == INT_MAX:
+/// no candidate outside best - 1 .. best + 1. Then, when the winner is flanked (best - 1 and
+/// best + 1 are both candidates), the band holds the winner's neighbourhood and nothing else: no
+/// rival, 255 (at the finer levels of a narrow band the common case: the coarser level that chose
+/// the band has settled the pixel). Otherwise the pixel has one or two candidates, as where the
+/// image border cuts its band: 0.
+inline std::uint8_t sgm_margin(int best_sum, int second, bool flanked) {
+  if (second == std::numeric_limits<int>::max()) return flanked ? 255 : 0;
+  return second > 0 ? static_cast<std::uint8_t>(255 * (second - best_sum) / second) : 0;
 }
 
 /// sgm_margin() without an integer division (some 12 cycles of latency per pixel on x86): the
 /// quotient 255 (S2 - S1) / S2 of integers below 2^24 and 2^16 is either exact in double or at
 /// least 1 / S2 >= 2^-16 below the next integer, far more than the rounding error of a double
 /// division (255 x 2^-53), so truncating the double quotient gives the integer quotient.
-inline std::uint8_t sgm_margin_fast(int best_sum, int second) {
-  return second != std::numeric_limits<int>::max() && second > 0
+inline std::uint8_t sgm_margin_fast(int best_sum, int second, bool flanked) {
+  if (second == std::numeric_limits<int>::max()) return flanked ? 255 : 0;
+  return second > 0
              ? static_cast<std::uint8_t>(static_cast<double>(255 * (second - best_sum)) / static_cast<double>(second))
              : 0;
 }
@@ -362,8 +366,11 @@ inline int level_max(int dmax, int l) { return -((-dmax) >> l); }
   void search_ranges(const Plane<std::int16_t>* coarse, int dmin, int dmax, int radius,           \
                      Plane<std::int16_t>& lo, Plane<std::int16_t>& hi);                            \
   /* SHD cost over each pixel's range and winner-takes-all (ties to the smaller d); output Q4. */  \
+  /* margin != nullptr: also the winner's margin sgm_margin(best, second best outside d-1..d+1) */ \
+  /* of every pixel (0 without a candidate), the confidence's first factor.                     */ \
   void match(const CensusCodes& ref, const CensusCodes& other, const SearchRanges& ranges,        \
-             const MatchConfig& config, MatchScratch& scratch, Plane<std::int16_t>& disparity);    \
+             const MatchConfig& config, MatchScratch& scratch, Plane<std::int16_t>& disparity,     \
+             Plane<std::uint8_t>* margin = nullptr);                                               \
   /* Scratch bytes one thread of match() needs for images `width` wide and ranges up to         */ \
   /* max_range candidates.                                                                       */ \
   std::size_t match_scratch_bytes(int width, int max_range, int shd_window);                      \

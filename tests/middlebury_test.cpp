@@ -64,7 +64,13 @@ MatchedScene match_scene(const fs::path& dir, const std::string& preset_name) {
   StereoParams p = preset(preset_name);
   p.min_disparity = 0;
   p.num_disparities = std::stoi(kv["max_disp"]) + 1;
-  MatchedScene scene{gt, {masks[0], masks[1], masks[2]}, std::stod(kv["gt_scale"]), Matcher(left.cols, left.rows, p)};
+  // Box presets make their confidence map too (the Middlebury figures do not depend on it).
+  MatcherOptions options;
+  options.compute_confidence = true;
+  MatchedScene scene{gt,
+                     {masks[0], masks[1], masks[2]},
+                     std::stod(kv["gt_scale"]),
+                     Matcher(left.cols, left.rows, p, Backend::Cpu, options)};
   scene.matcher.compute(
       {left.data, left.cols, left.rows, static_cast<std::ptrdiff_t>(left.step), PixelFormat::Bgr8},
       {right.data, right.cols, right.rows, static_cast<std::ptrdiff_t>(right.step), PixelFormat::Bgr8});
@@ -169,16 +175,27 @@ TEST(Middlebury, ConfidentHalfOfTsukubaHasAThirdOfTheErrors) {
   EXPECT_LE(s.confident_half, 1.0);
 }
 
-// The same on the four Middlebury 2003 scenes on average, for every SGM preset; scene by scene at
-// most half (Venus, with 1.7 % bad, keeps 0.6 % in its confident half: errors the margin cannot see).
+// The same with the box margin of the realtime preset on the bundled Tsukuba: its confident half
+// has under half of the errors (measured 3.58 % of 7.91 %; the four-scene average below is a
+// quarter).
+TEST(Middlebury, ConfidentHalfOfTsukubaHasFewerErrorsWithBoxAggregation) {
+  const Sparsification s = sparsification(fs::path(MCTSTEREO_DATA_DIR) / "tsukuba", "realtime");
+  EXPECT_GT(s.all, 5.0);
+  EXPECT_LE(s.confident_half, s.all / 2) << s.all;
+}
+
+// The same on the four Middlebury 2003 scenes on average, for every preset; scene by scene at most
+// half for band SGM (Venus, with 1.7 % bad, keeps 0.6 % in its confident half: errors the margin
+// cannot see) and at most 0.55 for box aggregation (mr-mct-full keeps 1.11 % of Venus's 2.17 %).
 TEST(Middlebury, ConfidentHalfHasAThirdOfTheErrors) {
   const fs::path root = fs::path(MCTSTEREO_SHARED_DATA_DIR) / "middlebury2003";
   if (!fs::exists(root)) GTEST_SKIP() << root << " not present";
-  for (const char* preset_name : {"balanced", "quality", "sgm-full"}) {
+  for (const std::string& preset_name : preset_names()) {
+    const double per_scene = preset(preset_name).sgm() ? 0.5 : 0.55;
     double all = 0, half = 0;
     for (const char* scene : {"tsukuba", "venus", "teddy", "cones"}) {
       const Sparsification s = sparsification(root / scene, preset_name);
-      EXPECT_LE(s.confident_half, s.all / 2) << preset_name << " " << scene;
+      EXPECT_LE(s.confident_half, per_scene * s.all) << preset_name << " " << scene;
       all += s.all;
       half += s.confident_half;
     }

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <cstring>
 #include <ostream>
 #include <stdexcept>
 #include <string>
@@ -93,6 +94,30 @@ inline std::string describe_difference(const std::vector<std::int16_t>& a, const
     if (a[i] != b[i])
       return "(" + std::to_string(i % w) + ", " + std::to_string(i / w) + "): " + std::to_string(a[i]) + " vs " +
              std::to_string(b[i]);
+  return {};
+}
+
+/// The confidence of a matcher, row after row, as bytes of the floats (equal means bit for bit).
+inline std::vector<std::uint32_t> confidence_bits(const Matcher& m) {
+  const MapView<const float> c = m.confidence();
+  std::vector<std::uint32_t> out;
+  for (int y = 0; y < c.height; ++y)
+    for (int x = 0; x < c.width; ++x) {
+      std::uint32_t bits;
+      std::memcpy(&bits, c.row(y) + x, sizeof bits);
+      out.push_back(bits);
+    }
+  return out;
+}
+
+/// "at pixel x, y" where the confidence maps of two matchers first differ, "no confidence" when
+/// the first has none, or empty when they are equal bit for bit.
+inline std::string confidence_difference(const Matcher& a, const Matcher& b) {
+  const std::vector<std::uint32_t> ca = confidence_bits(a), cb = confidence_bits(b);
+  if (ca.empty()) return "no confidence";
+  if (ca.size() != cb.size()) return "sizes differ";
+  for (std::size_t i = 0; i < ca.size(); ++i)
+    if (ca[i] != cb[i]) return "at pixel " + std::to_string(i % a.width()) + ", " + std::to_string(i / a.width());
   return {};
 }
 

@@ -35,6 +35,10 @@ struct MatcherOptions {
   int threads = 0;
   /// Also produce the refined right-view disparity map (the LR check computes a raw one anyway).
   bool compute_right = false;
+  /// Also produce the confidence map with box aggregation, where it costs the second-best search
+  /// of every pixel of the finest level (a few percent of a frame). Band SGM always produces it:
+  /// its winner selection finds the second best anyway.
+  bool compute_confidence = false;
   /// The OpenCL device of the opencl and auto backends: "" prefers the first GPU, else the first
   /// device; a number is an index into opencl_devices(); other text picks the first device whose
   /// name or platform contains it (case-insensitive).
@@ -85,7 +89,8 @@ class Matcher {
   /// Confidence of each pixel of the left map in [0, 1] (docs/PIPELINE.md, "Confidence"): the
   /// winner's margin over the best sum outside d-1..d+1, times the left-right agreement; 0 where the
   /// checks invalidated the pixel and the fill guessed its value. Made by the first call after each
-  /// compute(); allocates nothing. Empty (null data) before the first frame and for box aggregation.
+  /// compute(); allocates nothing. Empty (null data) before the first frame, and with box aggregation
+  /// unless MatcherOptions::compute_confidence.
   MapView<const float> confidence() const;
   /// Right-view disparity (Q4; the right pixel x matches left x + d), refined like the left one.
   /// Empty (null data) unless MatcherOptions::compute_right.

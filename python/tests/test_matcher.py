@@ -57,6 +57,16 @@ def test_confidence_and_right_map(tsukuba):
     assert box.confidence() is None
     assert box.right_disparity_q4() is None
     assert set(box.timings) >= {"census", "match", "frame"}
+    # A box preset gives its confidence when asked, and the same map as without it.
+    confident_box = mctstereo.Matcher(384, 288, mctstereo.preset("realtime", num_disparities=16),
+                                      compute_confidence=True)
+    confident_box.compute(left, right)
+    box_confidence = confident_box.confidence()
+    assert box_confidence.shape == (288, 384)
+    assert 0.0 <= box_confidence.min() and box_confidence.max() <= 1.0
+    assert np.mean(box_confidence > 0.25) > 1 / 3
+    assert not np.array_equal(box_confidence, confidence)
+    assert np.array_equal(confident_box.disparity_q4(), box.disparity_q4())
 
 
 def test_gray_and_colour_in_place_layouts(tsukuba):

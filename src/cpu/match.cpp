@@ -92,6 +92,7 @@ struct MatchJob {
   const SearchRanges* ranges;
   const MatchConfig* config;
   Plane<std::int16_t>* disparity;
+  Plane<std::uint8_t>* margin;  // null: not wanted
   int tile_w;   // pixels per tile row (<= kTile, see match())
   int tiles_x;
 };
@@ -374,7 +375,8 @@ HWY_INLINE V16 Finalize(const WtaState& st, V16 f, V16 l, int uniqueness_ratio) 
   if (bc == kInf) return hn::Set(d16, kInvalid);
   if constexpr (kUnique) {
     const int sec = hn::GetLane(st.sec);
-    if (sec != kInf && 100 * (sec - bc) <= uniqueness_ratio * bc) return hn::Set(d16, kInvalid);
+    if (uniqueness_ratio > 0 && sec != kInf && 100 * (sec - bc) <= uniqueness_ratio * bc)
+      return hn::Set(d16, kInvalid);
   }
   int q4 = 16 * bd;
   if constexpr (kSubpixel) {
@@ -422,7 +424,7 @@ HWY_INLINE V16 Finalize(const WtaState& st, V16 f, V16 l, int uniqueness_ratio) 
       const V16 signed_q = hn::IfThenElse(hn::Lt(st.cm1, st.cp1), hn::Neg(q), q);
       q4 = hn::Add(q4, hn::IfThenElseZero(ok, signed_q));
     }
-    if constexpr (kUnique) {
+    if (kUnique && uniqueness_ratio > 0) {
       // 100 (sec - bc) <= ratio bc  <=>  100 sec <= (100 + ratio) bc.
       const auto k100 = hn::Set(d32, 100), kr = hn::Set(d32, 100 + uniqueness_ratio);
       const auto fails = [&](hn::Vec<decltype(d32)> sec, hn::Vec<decltype(d32)> bc) {
@@ -435,6 +437,40 @@ HWY_INLINE V16 Finalize(const WtaState& st, V16 f, V16 l, int uniqueness_ratio) 
   return hn::IfThenElse(invalid, hn::Set(d16, kInvalid), q4);
 }
 #endif
+
+// The margin sgm_margin(bc, sec, flanked) = 255 (sec - bc) / sec of one vector of pixels: where a
+// pixel has no second best (sec = kInf), 255 if its winner bd is flanked (F < bd < L), else 0; 0
+// where it has no candidate (bc = kInf) or sec = 0.
+HWY_INLINE V16 MarginOf(const WtaState& st, V16 f, V16 l) {
+  const D16 d16;
+  const V16 bc = st.bc, sec = st.sec;
+#if HWY_TARGET == HWY_SCALAR
+  const int b = hn::GetLane(bc), s = hn::GetLane(sec), bd = hn::GetLane(st.bd);
+  const bool flanked = bd > hn::GetLane(f) && bd < hn::GetLane(l);
+  return hn::Set(d16, static_cast<std::int16_t>(
+                          b == kInf ? 0 : sgm_margin(b, s == kInf ? std::numeric_limits<int>::max() : s, flanked)));
+#else
+  // In float: 255 (sec - bc) <= 255 x 6480 < 2^24 and sec are exact, and the quotient (<= 255),
+  // where it is not an integer, lies at least 1 / sec >= 1 / 6480 below the next one, far more
+  // than the rounding error of the division (255 x 2^-24), so truncation gives the integer
+  // quotient. Lanes masked below may divide by 0; their value is never used.
+  const hn::Half<D16> dh;
+  const hn::Repartition<std::int32_t, D16> d32;
+  const hn::Rebind<float, decltype(d32)> df;
+  const auto quotient = [&](V16 b16, V16 s16, auto half) {
+    const auto b = hn::PromoteTo(d32, half(b16)), s = hn::PromoteTo(d32, half(s16));
+    const auto num = hn::ConvertTo(df, hn::Mul(hn::Set(d32, 255), hn::Sub(s, b)));
+    return hn::DemoteTo(dh, hn::ConvertTo(d32, hn::Div(num, hn::ConvertTo(df, s))));
+  };
+  const V16 q = hn::Combine(d16, quotient(bc, sec, [&](V16 v) { return hn::UpperHalf(dh, v); }),
+                            quotient(bc, sec, [&](V16 v) { return hn::LowerHalf(dh, v); }));
+  const V16 inf = hn::Set(d16, kInf);
+  const auto flanked = hn::And(hn::Gt(st.bd, f), hn::Lt(st.bd, l));
+  const auto no_second = hn::AndNot(hn::Eq(bc, inf), hn::Eq(sec, inf));
+  const auto zero = hn::Or(hn::Or(hn::Eq(bc, inf), hn::Eq(sec, hn::Zero(d16))), hn::AndNot(flanked, no_second));
+  return hn::IfThenElse(hn::And(no_second, flanked), hn::Set(d16, 255), hn::IfThenZeroElse(zero, q));
+#endif
+}
 
 // WTA over band candidates c0..c1 for every pixel of the tile. With the whole union in the band
 // (first && last), a pass for the winner and, for uniqueness, a second pass for the second best.
@@ -500,6 +536,7 @@ void WtaTile(const MatchJob& job, const TileBounds& tb, int x0, int y0, int tw, 
   if (!last) return;
   const int ratio = job.config->uniqueness_ratio;
   alignas(64) std::int16_t out[kMaxLanes16];
+  alignas(64) std::int16_t margins[kMaxLanes16];
   for (int r = 0; r < th; ++r) {
     std::int16_t* row = job.disparity->row(y0 + r) + x0;
     for (int x = 0; x < tw; x += N16) {
@@ -512,6 +549,11 @@ void WtaTile(const MatchJob& job, const TileBounds& tb, int x0, int y0, int tw, 
       st.sec = kUnique ? hn::Load(d16, sp + 4 * N16) : inf;
       const V16 f = hn::Load(d16, tb.F[r] + x), l = hn::Load(d16, tb.L[r] + x);
       const V16 q4 = Finalize<kSubpixel, kUnique>(st, f, l, ratio);
+      if (kUnique && job.margin != nullptr) {
+        hn::Store(MarginOf(st, f, l), d16, margins);
+        std::uint8_t* m = job.margin->row(y0 + r) + x0 + x;
+        for (int i = 0; i < std::min(N16, tw - x); ++i) m[i] = static_cast<std::uint8_t>(margins[i]);
+      }
       // The pixels past tw belong to the next tile, which another thread may be writing: only the
       // tile's own pixels are stored, by a masked store where the target has a true one.
       if (x + N16 <= tw) {
@@ -600,7 +642,10 @@ void MatchTile(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t byt
     umax = std::max(umax, rl);
   }
   if (umin > umax) {  // no pixel of the tile has a candidate
-    for (int r = 0; r < th; ++r) std::fill_n(job.disparity->row(y0 + r) + x0, tw, kInvalid);
+    for (int r = 0; r < th; ++r) {
+      std::fill_n(job.disparity->row(y0 + r) + x0, tw, kInvalid);
+      if (job.margin != nullptr) std::fill_n(job.margin->row(y0 + r) + x0, tw, std::uint8_t{0});
+    }
     return;
   }
 
@@ -622,7 +667,8 @@ void MatchTile(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t byt
       tr.other[k][t] = job.other->plane[k].row(y);
     }
   }
-  const bool sub = job.config->subpixel, uniq = job.config->uniqueness_ratio > 0;
+  // The second best serves the uniqueness test and the margin.
+  const bool sub = job.config->subpixel, uniq = job.config->uniqueness_ratio > 0 || job.margin != nullptr;
   for (int c0 = umin; c0 <= umax; c0 += kc) {
     const int c1 = std::min(umax, c0 + kc - 1);
     for (int d = c0; d <= c1; ++d) {
@@ -674,7 +720,8 @@ std::size_t match_scratch_bytes(int /*width*/, int max_range, int /*shd_window*/
 }
 
 void match(const CensusCodes& ref, const CensusCodes& other, const SearchRanges& ranges,
-           const MatchConfig& config, MatchScratch& scratch, Plane<std::int16_t>& disparity) {
+           const MatchConfig& config, MatchScratch& scratch, Plane<std::int16_t>& disparity,
+           Plane<std::uint8_t>* margin) {
   using namespace match_layout;
   const int w = ref.plane[0].width(), h = ref.plane[0].height();
   if (w <= 0 || h <= 0) return;
@@ -682,7 +729,7 @@ void match(const CensusCodes& ref, const CensusCodes& other, const SearchRanges&
   // is then exactly kTile columns, a whole number of vectors. The width is even, as
   // PriorRangeSegment needs of a tile's first column.
   const int tile_w = kTile - 2 * (config.shd_window / 2);
-  const MatchJob job{&ref, &other, &ranges, &config, &disparity, tile_w, (w + tile_w - 1) / tile_w};
+  const MatchJob job{&ref, &other, &ranges, &config, &disparity, margin, tile_w, (w + tile_w - 1) / tile_w};
   const int tiles = job.tiles_x * ((h + kRows - 1) / kRows);
   const int threads = std::max(1, std::min(scratch.threads, omp_get_max_threads()));
   // Each thread's slice starts at the next 64-byte boundary (the aligned loads need it) and must

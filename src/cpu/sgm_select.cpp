@@ -144,9 +144,9 @@ HWY_INLINE std::int16_t SelectLeft(const std::uint16_t* sum, int lo, int count, 
   }
   const int sec_raw = MinLane(vsec);
   const int second = sec_raw == kSgmInf ? INT_MAX : sec_raw;
-  if (margin) *margin = sgm_margin_fast(best_sum, second);
   const int cm1 = best > 0 ? sum[best - 1] : -1;
   const int cp1 = best + 1 < count ? sum[best + 1] : -1;
+  if (margin) *margin = sgm_margin_fast(best_sum, second, cm1 >= 0 && cp1 >= 0);
   return sgm_winner_q4(lo + best, best_sum, second, cm1, cp1, config);
 }
 

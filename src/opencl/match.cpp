@@ -36,7 +36,8 @@ std::size_t round_up(std::size_t n, std::size_t multiple) { return (n + multiple
 
 std::string size_text(int w, int h) { return std::to_string(w) + " x " + std::to_string(h); }
 
-std::string match_options(int code_words, const MatchConfig& config, Popcount popcount, const Layout& layout) {
+std::string match_options(int code_words, const MatchConfig& config, bool margin, Popcount popcount,
+                          const Layout& layout) {
   const int a = config.shd_window;
   if (a < 1 || a > 9 || a % 2 == 0)
     throw std::invalid_argument("match: SHD window " + std::to_string(a) + " is not 1, 3, 5, 7 or 9");
@@ -44,21 +45,24 @@ std::string match_options(int code_words, const MatchConfig& config, Popcount po
     throw std::invalid_argument("match: census codes of " + std::to_string(code_words) + " words");
   return "-DSHD_A=" + std::to_string(a) + " -DCODE_WORDS=" + std::to_string(code_words) +
          " -DSUBPIXEL=" + (config.subpixel ? "1" : "0") + " -DUNIQUENESS=" + (config.uniqueness_ratio > 0 ? "1" : "0") +
+         " -DMARGIN=" + (margin ? "1" : "0") +
          " -DPOPCOUNT_SWAR=" + (popcount == Popcount::Swar ? "1" : "0") + " -DROWS=" + std::to_string(layout.rows) +
          " -DFULL_UNROLL=" + (layout.unroll ? "1" : "0");
 }
 
 }  // namespace
 
-Match::Match(Runtime& rt, int code_words, const MatchConfig& config, Popcount popcount, bool gpu_layout)
-    : StageKernel(rt, "match", "match", match_options(code_words, config, popcount, layout_for(gpu_layout))),
+Match::Match(Runtime& rt, int code_words, const MatchConfig& config, bool margin, Popcount popcount, bool gpu_layout)
+    : StageKernel(rt, "match", "match", match_options(code_words, config, margin, popcount, layout_for(gpu_layout))),
       code_words_(code_words),
       config_(config),
+      margin_(margin),
       rows_(layout_for(gpu_layout).rows),
       local_(layout_for(gpu_layout).local) {}
 
 void Match::run(const DeviceCodes& ref, const DeviceCodes& other, const DevicePlane<std::int16_t>* prior, int dmin,
-                int dmax, int radius, int dir, DevicePlane<std::int16_t>& disparity) {
+                int dmax, int radius, int dir, DevicePlane<std::int16_t>& disparity,
+                DevicePlane<std::uint8_t>* margin) {
   if (dir != -1 && dir != 1) throw std::invalid_argument("match: dir " + std::to_string(dir) + " is not -1 or +1");
   if (ref.words != code_words_ || other.words != code_words_)
     throw std::invalid_argument("match: census codes of " + std::to_string(ref.words) + " and " +
@@ -76,6 +80,11 @@ void Match::run(const DeviceCodes& ref, const DeviceCodes& other, const DevicePl
   if (disparity.width != w || disparity.height != h)
     throw std::invalid_argument("match: disparity map " + size_text(disparity.width, disparity.height) +
                                 " for codes " + size_text(w, h));
+  if (margin != nullptr && !margin_)
+    throw std::invalid_argument("match: margins asked of a kernel built without them");
+  if (margin != nullptr && (margin->width != w || margin->height != h))
+    throw std::invalid_argument("match: margin plane " + size_text(margin->width, margin->height) + " for codes " +
+                                size_text(w, h));
   if (prior != nullptr && (prior->width < 1 || prior->height < 1))
     throw std::invalid_argument("match: empty prior " + size_text(prior->width, prior->height));
   if (w == 0 || h == 0) return;
@@ -92,6 +101,10 @@ void Match::run(const DeviceCodes& ref, const DeviceCodes& other, const DevicePl
   else
     set_args_from(9, NoBuffer{}, 0, 0, 0);
   set_args_from(13, dmin, dmax, radius, dir, config_.uniqueness_ratio, disparity.buffer, disparity.stride);
+  if (margin != nullptr)
+    set_args_from(20, margin->buffer, margin->stride);
+  else
+    set_args_from(20, NoBuffer{}, 0);
   // One work-item per 16 columns x `rows_` rows; the kernel skips work-items beyond the image.
   const std::size_t strips_x = (w + 15) / 16, strips_y = (h + rows_ - 1) / rows_;
   enqueue(cl::NDRange(round_up(strips_x, local_[0]), round_up(strips_y, local_[1])), local_, "match");
@@ -102,14 +115,15 @@ void Match::run(const DeviceCodes& ref, const DeviceCodes& other, const DevicePl
 void match_with_layout(Runtime& rt, const DeviceCodes& ref, const DeviceCodes& other,
                        const DevicePlane<std::int16_t>* prior, int dmin, int dmax, int radius,
                        const MatchConfig& config, Popcount popcount, bool gpu_layout,
-                       DevicePlane<std::int16_t>& disparity) {
-  Match(rt, ref.words, config, popcount, gpu_layout).run(ref, other, prior, dmin, dmax, radius, config.dir, disparity);
+                       DevicePlane<std::int16_t>& disparity, DevicePlane<std::uint8_t>* margin) {
+  Match(rt, ref.words, config, margin != nullptr, popcount, gpu_layout)
+      .run(ref, other, prior, dmin, dmax, radius, config.dir, disparity, margin);
 }
 
 void match(Runtime& rt, const DeviceCodes& ref, const DeviceCodes& other, const DevicePlane<std::int16_t>* prior,
            int dmin, int dmax, int radius, const MatchConfig& config, Popcount popcount,
-           DevicePlane<std::int16_t>& disparity) {
-  match_with_layout(rt, ref, other, prior, dmin, dmax, radius, config, popcount, rt.device().gpu, disparity);
+           DevicePlane<std::int16_t>& disparity, DevicePlane<std::uint8_t>* margin) {
+  match_with_layout(rt, ref, other, prior, dmin, dmax, radius, config, popcount, rt.device().gpu, disparity, margin);
 }
 
 }  // namespace mctstereo::detail::opencl

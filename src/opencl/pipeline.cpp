@@ -130,7 +130,7 @@ struct Pipeline::Stages {
   std::optional<MedianFilter> wm_median;
 
   // check_right: some level checks the right view's map too.
-  Stages(Runtime& rt, const StereoParams& p, bool check_right, bool compute_right)
+  Stages(Runtime& rt, const StereoParams& p, bool check_right, bool compute_right, bool confidence_map)
       : gray_rgb(rt, PixelFormat::Rgb8),
         gray_bgr(rt, PixelFormat::Bgr8),
         pyramid(rt),
@@ -156,8 +156,8 @@ struct Pipeline::Stages {
       sgm_costs.emplace(rt, pick_popcount(rt.device()));
       sgm_aggregate.emplace(rt);
       sgm_select.emplace(rt);
-      confidence.emplace(rt);
     }
+    if (confidence_map) confidence.emplace(rt);
   }
   ToGray& to_gray(PixelFormat format) { return format == PixelFormat::Rgb8 ? gray_rgb : gray_bgr; }
 };
@@ -171,6 +171,7 @@ Pipeline::Pipeline(const DeviceInfo& device, int width, int height, const Stereo
       params_(params),
       options_(options),
       need_right_(params.lr_check || options.compute_right),
+      want_confidence_(params.sgm() || options.compute_confidence),
       popcount_(pick_popcount(rt_->device())),
       invalid_q4_(static_cast<std::int16_t>((params.min_disparity - 1) * kDisparityScale)) {
   std::lock_guard<std::mutex> lock(*frame_mutex_);
@@ -179,10 +180,11 @@ Pipeline::Pipeline(const DeviceInfo& device, int width, int height, const Stereo
     // The right view's map is checked at the finest level only when it is an output, and at the
     // others when they are refined.
     const bool check_right = options.compute_right || (params.refine_all_levels && params.pyramid_levels > 1);
-    stages_ = std::make_unique<Stages>(*rt_, params, check_right, options.compute_right);
+    stages_ = std::make_unique<Stages>(*rt_, params, check_right, options.compute_right, want_confidence_);
     for (int l = 0; l < params.pyramid_levels && !params.sgm(); ++l) {
       const MatchConfig config{-1, levels_[l].shd_window, params.subpixel && l == 0, params.uniqueness_ratio};
-      levels_[l].match.emplace(*rt_, census_words(params.census_window), config, popcount_, rt_->device().gpu);
+      levels_[l].match.emplace(*rt_, census_words(params.census_window), config, l == 0 && want_confidence_,
+                               popcount_, rt_->device().gpu);
     }
     // Buffers are allocated lazily by most drivers: a sum beyond the device is caught here, with
     // the numbers, rather than as an allocation failure in some kernel of the first frame.
@@ -218,8 +220,8 @@ Pipeline::Pipeline(const DeviceInfo& device, int width, int height, const Stereo
   timings_.reserve(kTimingLabels.size() + 4);
   for (const char* label : kTimingLabels) {
     timings_.push_back({label, 0.0});
-    // Band SGM's confidence comes after speckle removal, as in the frame.
-    if (params.sgm() && std::string_view(label) == "speckle") timings_.push_back({"confidence", 0.0});
+    // The confidence comes after speckle removal, as in the frame.
+    if (want_confidence_ && std::string_view(label) == "speckle") timings_.push_back({"confidence", 0.0});
     if (params.weighted_median && std::string_view(label) == "fill") timings_.push_back({"weighted_median", 0.0});
   }
 }
@@ -274,6 +276,10 @@ void Pipeline::allocate() {
     if (p.sgm()) allocate_sgm_planes(L);
   }
   if (p.sgm()) allocate_sgm_storage();
+  if (want_confidence_) {
+    plane(margin_, levels_[0].width, levels_[0].height);
+    plane(confidence_, levels_[0].width, levels_[0].height);
+  }
   if (p.speckle_size > 0) {
     speckle_scratch_.label.reset(levels_[0].width, levels_[0].height);
     speckle_scratch_.stack =
@@ -296,8 +302,7 @@ void Pipeline::allocate_sgm_planes(Level& L) {
   plane(L.sgm.count, L.width, L.height);
 }
 
-// The cost, sum and line scratch buffers every level's volume uses, sized for the largest, and
-// the finest level's margins and confidence.
+// The cost, sum and line scratch buffers every level's volume uses, sized for the largest.
 void Pipeline::allocate_sgm_storage() {
   std::size_t entries = 1, scratch = 1;
   for (const Level& L : levels_) {
@@ -313,8 +318,6 @@ void Pipeline::allocate_sgm_storage() {
     L.sgm.sum = sum;
     L.sgm.scratch = lines;
   }
-  plane(margin_, levels_[0].width, levels_[0].height);
-  plane(confidence_, levels_[0].width, levels_[0].height);
 }
 
 const DevicePlane<std::uint8_t>& Pipeline::level_image(int l, int v) const {
@@ -374,7 +377,9 @@ void Pipeline::run_levels() {
     for (int v = 0; v < views; ++v) {
       // Each view searches around the coarser level's map of the same view.
       const DevicePlane<std::int16_t>* prior = coarsest ? nullptr : &levels_[l + 1].disparity[v];
-      L.match->run(L.codes[v], L.codes[1 - v], prior, L.dmin, L.dmax, L.radius, v == 0 ? -1 : +1, L.disparity[v]);
+      DevicePlane<std::uint8_t>* margin = v == 0 && l == 0 && want_confidence_ ? &margin_ : nullptr;
+      L.match->run(L.codes[v], L.codes[1 - v], prior, L.dmin, L.dmax, L.radius, v == 0 ? -1 : +1, L.disparity[v],
+                   margin);
     }
     if (L.refine) refine(L, l == 0);
   }
@@ -413,7 +418,7 @@ void Pipeline::refine(Level& L, bool finest) {
   if (L.speckle > 1)
     for (int v = 0; v < kept; ++v) remove_speckles_on_host(L, v, L.speckle);
   // The confidence of the final map: what survived the checks, before the fill guesses.
-  if (finest && params_.sgm())
+  if (finest && want_confidence_)
     stages_->confidence->run(margin_, L.disparity[0], need_right_ ? &L.disparity[1] : nullptr, params_.lr_threshold,
                              confidence_);
   for (int v = 0; v < kept; ++v) stages_->fill.run(L.disparity[v]);

@@ -37,8 +37,8 @@ class Pipeline {
   /// The left map of the last frame in pixels, NaN where invalid (device-made by to_output,
   /// downloaded only when asked for).
   void download_float(Plane<float>& disparity);
-  /// Band SGM: the confidence (0..255) of the last frame at the working scale, the size of the
-  /// finest level (downloaded only when asked for).
+  /// The confidence (0..255) of the last frame at the working scale, the size of the finest level
+  /// (downloaded only when asked for); band SGM, or box aggregation with compute_confidence.
   void download_confidence(Plane<std::uint8_t>& confidence);
 
   /// The stage times of the last frame, as Matcher::timings() describes them for opencl (zero
@@ -71,6 +71,7 @@ class Pipeline {
   StereoParams params_;
   MatcherOptions options_;
   bool need_right_;
+  bool want_confidence_;  // band SGM always, box aggregation when the options ask for it
   Popcount popcount_;
   std::int16_t invalid_q4_;
   std::size_t device_bytes_ = 0;
@@ -86,7 +87,7 @@ class Pipeline {
   std::unique_ptr<Stages> stages_;                       // made once; matching's are the levels' own
   DevicePlane<std::int16_t> upscaled_[2], out_q4_[2];
   DevicePlane<float> out_float_;
-  DevicePlane<std::uint8_t> margin_, confidence_;  // band SGM, finest level
+  DevicePlane<std::uint8_t> margin_, confidence_;  // finest level, when want_confidence_
   SpeckleScratch speckle_scratch_;  // speckle removal runs on the host
   double speckle_ms_ = 0;
   std::vector<StageTime> timings_;  // filled in place: a frame only changes the times

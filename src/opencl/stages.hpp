@@ -118,13 +118,16 @@ class CensusTransform : StageKernel {
 /// device's, whatever the device is: tests run both).
 class Match : StageKernel {
  public:
-  Match(Runtime& rt, int code_words, const MatchConfig& config, Popcount popcount, bool gpu_layout);
+  /// margin: the kernel can also write the winners' margins (reference::match's margin).
+  Match(Runtime& rt, int code_words, const MatchConfig& config, bool margin, Popcount popcount, bool gpu_layout);
   void run(const DeviceCodes& ref, const DeviceCodes& other, const DevicePlane<std::int16_t>* prior, int dmin,
-           int dmax, int radius, int dir, DevicePlane<std::int16_t>& disparity);
+           int dmax, int radius, int dir, DevicePlane<std::int16_t>& disparity,
+           DevicePlane<std::uint8_t>* margin = nullptr);
 
  private:
   int code_words_;
   MatchConfig config_;
+  bool margin_;
   int rows_;  // image rows per work-item
   cl::NDRange local_;
 };
@@ -267,7 +270,7 @@ void census_transform(Runtime& rt, const DevicePlane<std::uint8_t>& image, const
 /// With the work layout of the device (a GPU's or a CPU device's).
 void match(Runtime& rt, const DeviceCodes& ref, const DeviceCodes& other, const DevicePlane<std::int16_t>* prior,
            int dmin, int dmax, int radius, const MatchConfig& config, Popcount popcount,
-           DevicePlane<std::int16_t>& disparity);
+           DevicePlane<std::int16_t>& disparity, DevicePlane<std::uint8_t>* margin = nullptr);
 void median_filter(Runtime& rt, const DevicePlane<std::int16_t>& src, int k, DevicePlane<std::int16_t>& dst);
 void lr_check(Runtime& rt, const DevicePlane<std::int16_t>& src, const DevicePlane<std::int16_t>& other, int dir,
               int threshold_q4, DevicePlane<std::int16_t>& dst);

@@ -11,7 +11,8 @@ std::size_t match_scratch_bytes(int /*width*/, int max_range, int /*shd_window*/
 }
 
 void match(const CensusCodes& ref, const CensusCodes& other, const SearchRanges& ranges,
-           const MatchConfig& config, MatchScratch& scratch, Plane<std::int16_t>& disparity) {
+           const MatchConfig& config, MatchScratch& scratch, Plane<std::int16_t>& disparity,
+           Plane<std::uint8_t>* margin) {
   const int w = ref.plane[0].width(), h = ref.plane[0].height();
   const int hr = config.shd_window / 2;
   int* cost = reinterpret_cast<int*>(scratch.data.get());
@@ -40,6 +41,7 @@ void match(const CensusCodes& ref, const CensusCodes& other, const SearchRanges&
       }
       if (first > last) {
         disparity.at(x, y) = kInvalid;
+        if (margin != nullptr) margin->at(x, y) = 0;
         continue;
       }
       int best = first;
@@ -47,14 +49,15 @@ void match(const CensusCodes& ref, const CensusCodes& other, const SearchRanges&
         if (cost[d - dlo] < cost[best - dlo]) best = d;  // strict: ties keep the smaller d
       const int best_cost = cost[best - dlo];
 
-      if (config.uniqueness_ratio > 0) {
-        int second = INT_MAX;
-        for (int d = first; d <= last; ++d)
-          if (d < best - 1 || d > best + 1) second = std::min(second, cost[d - dlo]);
-        if (second != INT_MAX && 100 * (second - best_cost) <= config.uniqueness_ratio * best_cost) {
-          disparity.at(x, y) = kInvalid;
-          continue;
-        }
+      // The second best: the smallest cost outside best - 1 .. best + 1 (INT_MAX: none).
+      int second = INT_MAX;
+      for (int d = first; d <= last; ++d)
+        if (d < best - 1 || d > best + 1) second = std::min(second, cost[d - dlo]);
+      if (margin != nullptr) margin->at(x, y) = sgm_margin(best_cost, second, best > first && best < last);
+      if (config.uniqueness_ratio > 0 && second != INT_MAX &&
+          100 * (second - best_cost) <= config.uniqueness_ratio * best_cost) {
+        disparity.at(x, y) = kInvalid;
+        continue;
       }
       int q4 = 16 * best;
       if (config.subpixel && best > first && best < last)

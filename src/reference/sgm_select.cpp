@@ -21,7 +21,7 @@ std::int16_t select_one(int first, int last, Sum sum, Present present, const Sgm
   int second = INT_MAX;
   for (int d = first; d <= last; ++d)
     if (present(d) && (d < best - 1 || d > best + 1)) second = std::min(second, sum(d));
-  if (margin) *margin = sgm_margin(best_sum, second);
+  if (margin) *margin = sgm_margin(best_sum, second, present(best - 1) && present(best + 1));
   return sgm_winner_q4(best, best_sum, second, present(best - 1) ? sum(best - 1) : -1,
                        present(best + 1) ? sum(best + 1) : -1, config);
 }

@@ -1,7 +1,7 @@
 // cpu::match against reference::match, bit for bit: sizes, strides, both views, SHD windows,
 // census words, full / negative / nearly image-wide / per-pixel ranges (given as planes and made
-// by the search rule around a prior), sub-pixel, uniqueness, candidate chunking, on every SIMD
-// target and with 1 and 2 threads.
+// by the search rule around a prior), sub-pixel, uniqueness, the winners' margins, candidate
+// chunking, on every SIMD target and with 1 and 2 threads.
 #include <omp.h>
 
 #include <algorithm>
@@ -55,10 +55,12 @@ void for_each_match_target(const std::function<void(const std::string&)>& fn) {
 
 struct Stats {
   long valid = 0, fractional = 0;
+  long partial_margin = 0;  // pixels whose margin is strictly between 0 and 255
 };
 
-/// Compares cpu::match with reference::match on every target and 1 / 2 threads; returns counts
-/// of the reference output so that callers can check the case was not vacuous.
+/// Compares cpu::match with reference::match on every target and 1 / 2 threads (with 2 threads
+/// the margins too, so that both the plain and the margin-tracking paths run on every target);
+/// returns counts of the reference output so that callers can check the case was not vacuous.
 Stats expect_same(const CensusCodes& ref, const CensusCodes& other, const Ranges& r, const MatchConfig& config,
                   std::size_t cpu_scratch_bytes = 0, int out_pad = 0) {
   const int w = ref.plane[0].width(), h = ref.plane[0].height();
@@ -67,8 +69,15 @@ Stats expect_same(const CensusCodes& ref, const CensusCodes& other, const Ranges
     for (int x = 0; x < w; ++x) max_range = std::max(max_range, r.hi.at(x, y) - r.lo.at(x, y) + 1);
   MatchScratch ref_scratch = make_scratch(detail::reference::match_scratch_bytes(w, max_range, config.shd_window), 1);
   Plane<std::int16_t> expected(w, h);
+  Plane<std::uint8_t> expected_margin(w, h);
   const auto planes = detail::SearchRanges::planes(r.lo, r.hi);
-  detail::reference::match(ref, other, planes, config, ref_scratch, expected);
+  detail::reference::match(ref, other, planes, config, ref_scratch, expected, &expected_margin);
+  {
+    // Asking for the margins changes nothing else.
+    Plane<std::int16_t> without(w, h);
+    detail::reference::match(ref, other, planes, config, ref_scratch, without);
+    EXPECT_EQ(first_difference(expected, without), "") << "reference with and without margins";
+  }
   if (r.rule) {
     Plane<std::int16_t> by_rule(w, h);
     detail::reference::match(ref, other, *r.rule, config, ref_scratch, by_rule);
@@ -81,6 +90,7 @@ Stats expect_same(const CensusCodes& ref, const CensusCodes& other, const Ranges
       const int v = expected.at(x, y);
       stats.valid += v != kInvalid;
       stats.fractional += v != kInvalid && (v & 15) != 0;
+      stats.partial_margin += expected_margin.at(x, y) > 0 && expected_margin.at(x, y) < 255;
     }
 
   // The driver rounds the slices to 64 bytes; tests that pass their own size may leave them odd.
@@ -97,7 +107,21 @@ Stats expect_same(const CensusCodes& ref, const CensusCodes& other, const Ranges
         // Sentinels in the pad columns: the stage must write exactly the image pixels.
         for (int y = 0; y < h; ++y)
           for (int x = -out_pad; x < w + out_pad; ++x) got.row(y)[x] = 12345;
-        detail::cpu::match(ref, other, *form, config, scratch, got);
+        Plane<std::uint8_t> margin(w, h, out_pad);
+        for (int y = 0; y < h; ++y)
+          for (int x = -out_pad; x < w + out_pad; ++x) margin.row(y)[x] = 77;
+        const bool with_margin = threads == 2;
+        detail::cpu::match(ref, other, *form, config, scratch, got, with_margin ? &margin : nullptr);
+        if (with_margin) {
+          EXPECT_EQ(first_difference(expected_margin, margin), "")
+              << target << ", margins, " << w << "x" << h << ", dir " << config.dir << ", a " << config.shd_window
+              << ", uniqueness " << config.uniqueness_ratio;
+          for (int y = 0; y < h; ++y)
+            for (int x = 1; x <= out_pad; ++x) {
+              ASSERT_EQ(margin.row(y)[-x], 77) << target;
+              ASSERT_EQ(margin.row(y)[w - 1 + x], 77) << target;
+            }
+        }
         EXPECT_EQ(first_difference(expected, got), "")
             << target << ", " << threads << " threads, " << w << "x" << h << ", ranges "
             << (form == &planes ? "from planes" : "by the rule") << ", dir " << config.dir << ", a "
@@ -128,6 +152,7 @@ TEST(CpuMatch, AwkwardSizesBothViewsFullRange) {
       MatchConfig config{dir, 5, dir < 0, dir < 0 ? 15 : 0};
       const Stats s = dir < 0 ? expect_same(left, right, r, config) : expect_same(right, left, r, config);
       EXPECT_GT(s.valid, 0) << w << "x" << h;
+      if (w >= 15) EXPECT_GT(s.partial_margin, 0) << w << "x" << h;
     }
   }
 }
@@ -175,6 +200,7 @@ TEST(CpuMatch, SubpixelAndUniquenessAllCombinations) {
       const MatchConfig config{-1, 5, subpixel, uniqueness};
       const Stats s = expect_same(left, right, r, config);
       EXPECT_GT(s.valid, 0);
+      EXPECT_GT(s.partial_margin, w * h / 4);
       if (subpixel && uniqueness < 60) EXPECT_GT(s.fractional, 0);
       if (!subpixel) EXPECT_EQ(s.fractional, 0);
     }
@@ -308,6 +334,7 @@ TEST(CpuMatch, CandidateChunksWhenTheScratchIsSmall) {
       for (int uniqueness : {0, 15}) {
         const Stats s = expect_same(left, right, *r, {-1, 5, subpixel, uniqueness}, small);
         EXPECT_GT(s.valid, 0);
+        EXPECT_GT(s.partial_margin, 0);
       }
 }
 

@@ -257,13 +257,14 @@ TEST(SgmMargin, FastEqualsTheIntegerQuotient) {
       if (i < 4) s1 = std::clamp(i < 2 ? i : s2 - (i - 2), 0, s2);
       else if (i < 32) s1 = std::clamp(s2 - (s2 * ((i - 4) * 9 + 1)) / 255 + (i & 1), 0, s2);
       else s1 = any(rng);
-      ASSERT_EQ(detail::sgm_margin_fast(s1, s2), detail::sgm_margin(s1, s2)) << s1 << " " << s2;
+      ASSERT_EQ(detail::sgm_margin_fast(s1, s2, i & 1), detail::sgm_margin(s1, s2, i & 1)) << s1 << " " << s2;
       ++checked;
     }
   }
-  EXPECT_EQ(detail::sgm_margin_fast(5, std::numeric_limits<int>::max()), 0);
-  EXPECT_EQ(detail::sgm_margin_fast(0, 0), 0);
-  EXPECT_EQ(detail::sgm_margin_fast(1, 3), 170);  // 255 x 2 / 3
+  EXPECT_EQ(detail::sgm_margin_fast(5, std::numeric_limits<int>::max(), true), 255);
+  EXPECT_EQ(detail::sgm_margin_fast(5, std::numeric_limits<int>::max(), false), 0);
+  EXPECT_EQ(detail::sgm_margin_fast(0, 0, true), 0);
+  EXPECT_EQ(detail::sgm_margin_fast(1, 3, false), 170);  // 255 x 2 / 3
   EXPECT_EQ(checked, 65534 * 64);
 }
 

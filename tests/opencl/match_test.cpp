@@ -16,7 +16,7 @@ namespace mctstereo::detail::opencl {
 void match_with_layout(Runtime& rt, const DeviceCodes& ref, const DeviceCodes& other,
                        const DevicePlane<std::int16_t>* prior, int dmin, int dmax, int radius,
                        const MatchConfig& config, Popcount popcount, bool gpu_layout,
-                       DevicePlane<std::int16_t>& disparity);
+                       DevicePlane<std::int16_t>& disparity, DevicePlane<std::uint8_t>* margin);
 }  // namespace mctstereo::detail::opencl
 
 namespace mctstereo::test {
@@ -71,8 +71,9 @@ constexpr std::int16_t kSentinel = 12345;
 
 enum class Layout { Device, Gpu, Cpu };
 
-/// Runs opencl::match (with the device's layout or a given one) and compares with reference::match; also
-/// checks that the padding of the output rows keeps its sentinel. Returns counts of the reference
+/// Runs opencl::match (with the device's layout or a given one) and compares with reference::match, the
+/// left view's winners' margins too (so that kernels with and without them both run); also checks that
+/// the padding of the output rows keeps its sentinel. Returns counts of the reference
 /// output so that callers can check that the case was not vacuous.
 Stats expect_same(Runtime& rt, const Views& v, const Search& s, const MatchConfig& config,
                   Popcount popcount = Popcount::Builtin, Layout layout = Layout::Device) {
@@ -82,8 +83,10 @@ Stats expect_same(Runtime& rt, const Views& v, const Search& s, const MatchConfi
   scratch.bytes_per_thread = detail::reference::match_scratch_bytes(w, std::max(s.dmax - s.dmin + 1, 1), 0);
   scratch.data = detail::allocate_aligned<std::uint8_t>(scratch.bytes_per_thread);
   Plane<std::int16_t> expected(w, h);
+  Plane<std::uint8_t> expected_margin(w, h);
   detail::reference::match(ref, v.other(config.dir).host,
-                           detail::SearchRanges::around(s.prior, s.dmin, s.dmax, s.radius), config, scratch, expected);
+                           detail::SearchRanges::around(s.prior, s.dmin, s.dmax, s.radius), config, scratch, expected,
+                           &expected_margin);
   Stats stats;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
@@ -101,12 +104,16 @@ Stats expect_same(Runtime& rt, const Views& v, const Search& s, const MatchConfi
   std::vector<std::int16_t> buffer(out.bytes() / sizeof(std::int16_t), kSentinel);
   rt.queue().enqueueWriteBuffer(out.buffer, CL_TRUE, 0, out.bytes(), buffer.data());
   const DevicePlane<std::int16_t>* prior_arg = s.prior != nullptr ? &prior : nullptr;
+  DevicePlane<std::uint8_t> margin;
+  const bool with_margin = config.dir < 0 && w > 0 && h > 0;
+  if (with_margin) margin.reset(rt, w, h);
+  DevicePlane<std::uint8_t>* margin_arg = with_margin ? &margin : nullptr;
   if (layout == Layout::Device)
     detail::opencl::match(rt, v.ref(config.dir).device, v.other(config.dir).device, prior_arg, s.dmin, s.dmax,
-                          s.radius, config, popcount, out);
+                          s.radius, config, popcount, out, margin_arg);
   else
     detail::opencl::match_with_layout(rt, v.ref(config.dir).device, v.other(config.dir).device, prior_arg, s.dmin,
-                                      s.dmax, s.radius, config, popcount, layout == Layout::Gpu, out);
+                                      s.dmax, s.radius, config, popcount, layout == Layout::Gpu, out, margin_arg);
   rt.queue().enqueueReadBuffer(out.buffer, CL_TRUE, 0, out.bytes(), buffer.data());
 
   Plane<std::int16_t> got(w, h);
@@ -127,6 +134,11 @@ Stats expect_same(Runtime& rt, const Views& v, const Search& s, const MatchConfi
                            (layout == Layout::Gpu ? ", GPU layout" : layout == Layout::Cpu ? ", CPU layout" : "");
   EXPECT_EQ(first_difference(expected, got), "") << what;
   EXPECT_TRUE(slack_kept) << "wrote outside the image: " << what;
+  if (with_margin) {
+    Plane<std::uint8_t> got_margin(w, h);
+    detail::opencl::download(rt, margin, got_margin);
+    EXPECT_EQ(first_difference(expected_margin, got_margin), "") << "margins, " << what;
+  }
   return stats;
 }
 

@@ -57,6 +57,30 @@ TEST_P(OpenclPipelineCase, EqualsCpuBitForBit) {
 INSTANTIATE_TEST_SUITE_P(PresetsAndAwkwardCases, OpenclPipelineCase, ::testing::ValuesIn(pipeline_cases()),
                          [](const ::testing::TestParamInfo<PipelineCase>& info) { return info.param.id(); });
 
+// Box aggregation with compute_confidence: the map and the confidence equal the cpu backend's,
+// at an odd size, with and without the right map.
+TEST(OpenclPipeline, BoxConfidenceEqualsCpu) {
+  MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
+  const StereoPair pair = textured_pair(93, 37, 10, 5);
+  for (const char* name : {"realtime", "mr-mct-5x5"}) {
+    StereoParams p = preset(name);
+    p.num_disparities = 20;
+    for (bool right : {false, true}) {
+      SCOPED_TRACE(std::string(name) + (right ? ", compute_right" : ""));
+      MatcherOptions options;
+      options.compute_confidence = true;
+      options.compute_right = right;
+      Matcher cpu(93, 37, p, Backend::Cpu, options);
+      options.device = device_of(*rt);
+      Matcher ocl(93, 37, p, Backend::OpenCL, options);
+      cpu.compute(pair.left_view(), pair.right_view());
+      ocl.compute(pair.left_view(), pair.right_view());
+      EXPECT_EQ(describe_difference(pixels(ocl.disparity_q4()), pixels(cpu.disparity_q4()), 93), "");
+      EXPECT_EQ(confidence_difference(ocl, cpu), "");
+    }
+  }
+}
+
 // Colour views whose channels differ (so the conversion weights matter), in rows longer than the
 // pixels, as RGB on the left and BGR on the right.
 TEST(OpenclPipeline, ColourInputWithPaddedRowsEqualsCpu) {

@@ -16,28 +16,6 @@ namespace {
 
 std::string device_of(const detail::opencl::Runtime& rt) { return std::to_string(rt.device().index); }
 
-// The confidence of a matcher, row after row, as bytes of the floats (equal means bit for bit).
-std::vector<std::uint32_t> confidence_bits(const Matcher& m) {
-  const MapView<const float> c = m.confidence();
-  std::vector<std::uint32_t> out;
-  for (int y = 0; y < c.height; ++y)
-    for (int x = 0; x < c.width; ++x) {
-      std::uint32_t bits;
-      std::memcpy(&bits, c.row(y) + x, sizeof bits);
-      out.push_back(bits);
-    }
-  return out;
-}
-
-std::string confidence_difference(const Matcher& a, const Matcher& b) {
-  const std::vector<std::uint32_t> ca = confidence_bits(a), cb = confidence_bits(b);
-  if (ca.empty()) return "no confidence";
-  if (ca.size() != cb.size()) return "sizes differ";
-  for (std::size_t i = 0; i < ca.size(); ++i)
-    if (ca[i] != cb[i]) return "at pixel " + std::to_string(i % a.width()) + ", " + std::to_string(i / a.width());
-  return {};
-}
-
 // opencl equals cpu on `frames` pairs of the case, without and with the right map.
 void expect_equal_to_cpu(const PipelineCase& c, const std::string& device, int frames = 1) {
   for (bool right : {false, true}) {

@@ -116,6 +116,48 @@ TEST(ReferenceMatch, ConstantShiftIsFoundExactly) {
   EXPECT_EQ(disp.at(1, 0), 16);
 }
 
+// The winner's margin 255 (S2 - S1) / S2, S2 the best cost outside best - 1 .. best + 1, on codes
+// set by hand (a 1 x 1 window: the cost is the popcount of one XOR).
+TEST(ReferenceMatch, MarginSkipsTheWinnersNeighbours) {
+  const int w = 8, h = 1;
+  detail::CensusCodes cl, cr;
+  for (auto* c : {&cl, &cr}) {
+    c->words = 1;
+    c->plane[0].reset(w, h, detail::kCodePad);
+  }
+  cl.plane[0].at(4, 0) = 1u << 8;
+  // Pixel 4 of the left view against right pixels 4 - d: costs 5, 2, 1, 3, 4 for d = 0 .. 4.
+  const std::uint32_t right_codes[5] = {0b111, 0b11, 0, 0b1, 0b1111};
+  for (int x = 0; x < 5; ++x) cr.plane[0].at(x, 0) = right_codes[x];
+  Plane<std::int16_t> lo(w, h), hi(w, h), disp(w, h);
+  Plane<std::uint8_t> margin(w, h);
+  detail::reference::search_ranges(nullptr, 0, 4, 0, lo, hi);
+  detail::MatchScratch scratch;
+  scratch.bytes_per_thread = detail::reference::match_scratch_bytes(w, 5, 1);
+  scratch.data = detail::allocate_aligned<std::uint8_t>(scratch.bytes_per_thread);
+  detail::reference::match(cl, cr, detail::SearchRanges::planes(lo, hi), {-1, 1, false, 0}, scratch, disp, &margin);
+  EXPECT_EQ(disp.at(4, 0), 16 * 2);
+  // S1 = 1 at d = 2; d = 1 (cost 2) and d = 3 are its neighbours, so S2 = 4 (d = 4): 255 x 3 / 4.
+  EXPECT_EQ(margin.at(4, 0), 191);
+  // Pixel 0 has one candidate in the image (d = 0) and pixel 1 two (d = 0, 1): the image border
+  // cuts their bands, and a winner without both neighbours and without a rival has margin 0.
+  EXPECT_EQ(margin.at(0, 0), 0);
+  EXPECT_EQ(margin.at(1, 0), 0);
+  // With a range starting at 1, pixel 0 has no candidate: invalid, margin 0.
+  margin.at(0, 0) = 99;
+  detail::reference::search_ranges(nullptr, 1, 4, 0, lo, hi);
+  detail::reference::match(cl, cr, detail::SearchRanges::planes(lo, hi), {-1, 1, false, 0}, scratch, disp, &margin);
+  EXPECT_EQ(disp.at(0, 0), kInvalid);
+  EXPECT_EQ(margin.at(0, 0), 0);
+  EXPECT_EQ(margin.at(4, 0), 191);
+  // The band 1 .. 3 of pixel 4 (costs 2, 1, 3) holds the winner d = 2 and its two neighbours and
+  // nothing else: no rival, margin 255.
+  detail::reference::search_ranges(nullptr, 1, 3, 0, lo, hi);
+  detail::reference::match(cl, cr, detail::SearchRanges::planes(lo, hi), {-1, 1, false, 0}, scratch, disp, &margin);
+  EXPECT_EQ(disp.at(4, 0), 16 * 2);
+  EXPECT_EQ(margin.at(4, 0), 255);
+}
+
 TEST(ReferenceUpscale, ReplicatesScalesAndClamps) {
   Plane<std::int16_t> src(2, 1);
   src.at(0, 0) = 16 * 3;

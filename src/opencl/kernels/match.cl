@@ -3,6 +3,7 @@
 //
 // Options: -DSHD_A=a (1, 3, 5, 7 or 9); -DCODE_WORDS=k (1, 2 or 3 planes of census words);
 // -DSUBPIXEL=0/1 (parabola fit into Q4); -DUNIQUENESS=0/1 (ratio test on, the ratio an argument);
+// -DMARGIN=0/1 (the winners' margins into `margin` when that argument is not null);
 // -DPOPCOUNT_SWAR=0/1 (the SWAR bit count of OpenCL 1.1 devices instead of popcount());
 // -DROWS=n (image rows per work-item); -DFULL_UNROLL=0/1 (unroll the loops over rows).
 //
@@ -47,6 +48,8 @@
 // lane), as in the reference.
 
 #define HALF (SHD_A / 2)
+// The second best outside best - 1 .. best + 1 serves the uniqueness test and the margin.
+#define TRACK_SECOND (UNIQUENESS || MARGIN)
 
 // Full unrolling of the loops over rows makes every array index a constant, so that the ring of
 // Hamming rows and the winner-takes-all state are registers: what a GPU needs (a private array
@@ -163,7 +166,7 @@ __kernel void match(__global const uint* ref0, __global const uint* ref1, __glob
                     __global const uint* other0, __global const uint* other1, __global const uint* other2,
                     int code_stride, int width, int height, __global const short* prior, int prior_stride,
                     int prior_width, int prior_height, int dmin, int dmax, int radius, int dir, int uniqueness_ratio,
-                    __global short* disparity, int disparity_stride) {
+                    __global short* disparity, int disparity_stride, __global uchar* margin, int margin_stride) {
   const int x0 = (int)get_global_id(0) * 16;
   const int y0 = (int)get_global_id(1) * ROWS;
   if (x0 >= width || y0 >= height) return;
@@ -182,7 +185,7 @@ __kernel void match(__global const uint* ref0, __global const uint* ref1, __glob
 #if SUBPIXEL
   short16 previous[ROWS], before_best[ROWS], after_best[ROWS];  // costs at d - 1, best - 1, best + 1
 #endif
-#if UNIQUENESS
+#if TRACK_SECOND
   short16 second[ROWS], min_upto1[ROWS], min_upto2[ROWS];  // second best; minima up to d - 1, d - 2
 #endif
   // The hull of each row's intervals: a candidate outside it needs neither the row's winner-takes-
@@ -211,7 +214,7 @@ UNROLL
 #if SUBPIXEL
     previous[r] = before_best[r] = after_best[r] = (short16)(COST_INF);
 #endif
-#if UNIQUENESS
+#if TRACK_SECOND
     second[r] = min_upto1[r] = min_upto2[r] = (short16)(COST_INF);
 #endif
   }
@@ -297,7 +300,7 @@ UNROLL
       // lowered by every later candidate but d + 1.
       const short16 c = select(cost, (short16)(COST_INF), (dv < first[r]) | (dv > last[r]));
       const short16 better = c < best_cost[r];
-#if SUBPIXEL || UNIQUENESS
+#if SUBPIXEL || TRACK_SECOND
       const short16 next = dv == best_d[r] + (short16)(1);  // d == the best so far + 1
 #endif
 #if SUBPIXEL
@@ -305,7 +308,7 @@ UNROLL
       after_best[r] = select(select(after_best[r], c, next), (short16)(COST_INF), better);
       previous[r] = c;
 #endif
-#if UNIQUENESS
+#if TRACK_SECOND
       second[r] = select(select(min(second[r], c), second[r], next), min_upto2[r], better);
       min_upto2[r] = min_upto1[r];
       min_upto1[r] = min(min_upto1[r], c);
@@ -349,5 +352,24 @@ UNROLL
       vstore16(out, 0, value);
       for (int i = 0; i < width - x0; ++i) dst[i] = value[i];
     }
+#if MARGIN
+    // sgm_margin of stages.hpp: 255 (second - best) / second; without a second best 255 where the
+    // winner is flanked by both neighbours, else 0; 0 without a candidate or with second = 0 (the
+    // divisor is then replaced by 1 and the quotient unused).
+    if (margin != 0) {
+      const int16 b = convert_int16(best_cost[r]), s = convert_int16(second[r]);
+      const int16 bd = convert_int16(best_d[r]);
+      const int16 flanked = (bd > convert_int16(first[r])) & (bd < convert_int16(last[r]));
+      const int16 no_second = (b != (int16)(COST_INF)) & (s == (int16)(COST_INF));
+      const int16 no_rival = no_second & flanked;
+      const int16 zero = (b == (int16)(COST_INF)) | (s == (int16)(0)) | (no_second & ~flanked);
+      const int16 q = ((int16)(255) * (s - b)) / select(s, (int16)(1), zero | no_rival);
+      const int16 value16 = select(select(q, (int16)(0), zero), (int16)(255), no_rival);
+      uchar value[16];
+      vstore16(convert_uchar16(value16), 0, value);
+      __global uchar* m = margin + (size_t)y * margin_stride + x0;
+      for (int i = 0; i < min(16, width - x0); ++i) m[i] = value[i];
+    }
+#endif
   }
 }

@@ -170,7 +170,8 @@ __kernel void sgm_aggregate(__global const uchar* gray, int gray_stride, int wid
       int second = 0x7FFFFFFF;                                                                         \
       for (int d = (FIRST); d <= (LAST); ++d)                                                          \
         if (PRESENT(d) && (d < best - 1 || d > best + 1)) second = min(second, SUM(d));                \
-      if (second != 0x7FFFFFFF && second > 0) MARGIN_OUT = 255 * (second - best_sum) / second;         \
+      if (second == 0x7FFFFFFF) MARGIN_OUT = PRESENT(best - 1) && PRESENT(best + 1) ? 255 : 0;       \
+      else if (second > 0) MARGIN_OUT = 255 * (second - best_sum) / second;                           \
       if ((RATIO) > 0 && second != 0x7FFFFFFF && 100 * (second - best_sum) <= (RATIO) * best_sum) {   \
         RESULT = DISPARITY_INVALID;                                                                    \
       } else {                                                                                         \
