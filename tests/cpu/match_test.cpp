@@ -375,9 +375,15 @@ TEST(CpuMatch, ScratchSlicesNeedNotBeAligned) {
   expect_same(left, right, r, {-1, 5, true, 15}, odd);
 }
 
-TEST(CpuMatch, ScratchDoesNotDependOnHeightOrWidth) {
+// The scratch is one tile's: the same for any image width (the function takes no height), growing
+// with the range up to the chunk of 256 candidates and no further.
+TEST(CpuMatch, ScratchFollowsTheRangeUpToAChunkNotTheWidth) {
   EXPECT_EQ(detail::cpu::match_scratch_bytes(640, 64, 5), detail::cpu::match_scratch_bytes(64, 64, 5));
-  EXPECT_LE(detail::cpu::match_scratch_bytes(640, 64, 5), detail::cpu::match_scratch_bytes(640, 2048, 9));
+  EXPECT_EQ(detail::cpu::match_scratch_bytes(4096, 64, 5), detail::cpu::match_scratch_bytes(64, 64, 5));
+  EXPECT_LT(detail::cpu::match_scratch_bytes(640, 64, 5), detail::cpu::match_scratch_bytes(640, 128, 5));
+  EXPECT_EQ(detail::cpu::match_scratch_bytes(640, 256, 5), detail::cpu::match_scratch_bytes(640, 2048, 9));
+  // Under 2 MiB per thread even for the widest chunk (16 rows x 64 columns x 256 candidates x 2 bytes).
+  EXPECT_LT(detail::cpu::match_scratch_bytes(640, 2048, 9), std::size_t{2} << 20);
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 
 #include "mctstereo/matcher.hpp"
 #include "opencl_test_util.hpp"
+#include "frame_reference.hpp"
 #include "pipeline_cases.hpp"
 
 namespace mctstereo::test {
@@ -56,6 +57,26 @@ TEST_P(OpenclPipelineCase, EqualsCpuBitForBit) {
 // One test each: a case builds its own kernels (on PoCL, a fraction of a second per program).
 INSTANTIATE_TEST_SUITE_P(PresetsAndAwkwardCases, OpenclPipelineCase, ::testing::ValuesIn(pipeline_cases()),
                          [](const ::testing::TestParamInfo<PipelineCase>& info) { return info.param.id(); });
+
+// Every preset against the recipe of the whole frame written apart from the drivers
+// (frame_reference.hpp), on colour input whose channels differ, with the right map and the
+// confidence: a bug in the OpenCL pipeline's own recipe shows even where cpu would share it.
+TEST(OpenclPipeline, EveryPresetEqualsTheRecipeOnColourInput) {
+  MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
+  const ColourPair pair(89, 41, 12, 43, PixelFormat::Bgr8, 5);
+  for (const std::string& name : preset_names()) {
+    StereoParams p = preset(name);
+    p.num_disparities = 20;
+    MatcherOptions options;
+    options.compute_right = true;
+    options.compute_confidence = true;
+    const FrameResult expected = reference_frame(pair.left.view, pair.luma.right_view(), p, options);
+    options.device = device_of(*rt);
+    Matcher m(89, 41, p, Backend::OpenCL, options);
+    m.compute(pair.left.view, pair.luma.right_view());
+    EXPECT_EQ(difference_from_recipe(m, expected, options), "") << name;
+  }
+}
 
 // Box aggregation with compute_confidence: the map and the confidence equal the cpu backend's,
 // at an odd size, with and without the right map.
