@@ -6,7 +6,9 @@
 
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <iostream>
 #include <new>
 #include <string_view>
@@ -94,6 +96,9 @@ int main(int argc, char** argv) {
     if (bench.selected()) bench.run();
     if (devices.selected()) devices.run();
     if (render.selected()) render.run();
+    // The summary is output too: stdout on a full disk (or > /dev/full) is a failure.
+    if (!(std::cout << std::flush))
+      return fail(kExitRuntime, std::string("cannot write to stdout: ") + std::strerror(errno));
     return 0;
   } catch (const UsageError& e) {
     return fail(kExitUsage, e.what());

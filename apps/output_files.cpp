@@ -6,6 +6,7 @@
 
 #include <cerrno>
 #include <cstring>
+#include <iostream>
 #include <system_error>
 
 #include "errors.hpp"
@@ -61,7 +62,24 @@ struct Target {
   std::string problem;     // why it cannot be written; "" when it can
 };
 
+// /dev/stdout, /dev/stderr, /dev/fd/N and /proc/self/fd/N name a file this process has open: it is
+// written through the descriptor, at its offset, even when it is a regular file (`-o /dev/stdout >
+// d.pfm`), since replacing that file would leave the open one, and what is written to it later,
+// unlinked. The descriptor `path` names (`/dev/stdout` 1, `/dev/fd/5` 5), or -1 when it names none.
+int open_descriptor(const std::string& path) {
+  if (path == "/dev/stdout") return 1;
+  if (path == "/dev/stderr") return 2;
+  for (const std::string prefix : {"/dev/fd/", "/proc/self/fd/"}) {
+    if (path.rfind(prefix, 0) != 0) continue;
+    const std::string number = path.substr(prefix.size());
+    const bool digits = !number.empty() && number.find_first_not_of("0123456789") == std::string::npos;
+    return digits && number.size() <= 9 ? std::stoi(number) : -1;
+  }
+  return -1;
+}
+
 Target target_of(const std::string& path) {
+  if (open_descriptor(path) >= 0) return {path, true, ""};
   struct stat link {};
   if (::lstat(path.c_str(), &link) != 0) return {path, false, ""};  // a new file
   struct stat status {};
@@ -102,6 +120,14 @@ int write_all(int fd, const std::vector<std::uint8_t>& bytes) {
 // Writes a device or a FIFO where it is. A FIFO is opened without waiting, so one that no process
 // reads fails at once (ENXIO) instead of blocking; the writes then block as usual.
 void write_in_place(const std::string& path, const fs::path& file, const std::vector<std::uint8_t>& bytes) {
+  if (const int descriptor = open_descriptor(path); descriptor >= 0) {
+    // Through the descriptor itself: opening /dev/stdout anew would write a regular file from its
+    // start, over what the program wrote before (and under what it writes after).
+    std::cout.flush();
+    std::cerr.flush();
+    if (const int error = write_all(descriptor, bytes); error != 0) fail_writing(path, error);
+    return;
+  }
   const int fd = ::open(file.c_str(), O_WRONLY | O_NONBLOCK | O_CLOEXEC);
   if (fd < 0) {
     if (errno == ENXIO) throw RuntimeError("cannot write " + in_quotes(path) + ": it is a FIFO that no process reads");

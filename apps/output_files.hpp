@@ -36,8 +36,9 @@ void check_distinct_outputs(const std::vector<std::pair<std::string, std::string
 ///   renamed into place: a rename within one folder is atomic, so a reader never sees a half-written
 ///   file. A symbolic link to a regular file is written through: the temporary goes next to the
 ///   file it points to and replaces that file, so the link stays a link.
-/// - A character device (/dev/null, /dev/stdout on a terminal) or a FIFO is written in place, since
-///   renaming would replace it; a FIFO that no process reads is refused rather than waited for.
+/// - A character device (/dev/null) or a FIFO is written in place, since renaming would replace
+///   it; a FIFO that no process reads is refused rather than waited for. So is a file the process
+///   has open (/dev/stdout, /dev/fd/N), whatever it is.
 /// Every write, flush and close is checked: a full disk (or /dev/full) is a RuntimeError naming
 /// the file. Temporaries that were not committed are removed by the destructor.
 class PendingOutputs {
