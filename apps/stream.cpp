@@ -57,7 +57,8 @@ Outputs (per-frame patterns take the frame number, e.g. 'out/disp_%05d.png'):
   --depth P       one depth map per frame, as match --depth: .pfm (float, units of the baseline;
                   relative depth 1/d without a calibration) or .png (16-bit, millimetres)
   --preview-video F   left frame and colour disparity side by side (turbo over the fixed range
-                  [min, min + N - 1], black = invalid): .avi (MJPG), .mkv (FFV1, lossless), .mp4
+                  [min, min + N - 1], black = invalid): .avi (MJPG), .mkv (FFV1, lossless), .mp4;
+                  read back at the end, and an error unless every frame is in it (a full disk)
   --show          the same preview in a window with the live frame rate (q or Esc stops)
 Calibration (--calib FILE, or --focal and --baseline): as match. A file of the raw cameras (K1 D1
 K2 D2 without "rectified: 1") has every frame rectified before matching, with maps computed once;
@@ -698,8 +699,15 @@ void StreamCommand::run() const {
   const double seconds = std::chrono::duration<double>(Clock::now() - started).count();
   progress.finish();
   if (show) cv::destroyWindow(kWindow);
+  // The frames written before an error make a whole video too; the first failure is the one told.
+  if (preview_video) {
+    try {
+      preview_video->finish();
+    } catch (...) {
+      if (!error) throw;
+    }
+  }
   if (error) std::rethrow_exception(error);
-  if (preview_video) preview_video->finish();
 
   std::string wrote;
   if (format)
