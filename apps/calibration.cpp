@@ -123,6 +123,9 @@ std::string short_number(double v) {
 // Depth is focal x baseline / (d + doffs) in float, X and Y are (x - cx) baseline / (d + doffs):
 // within these bounds every depth and coordinate of an image up to 32768 pixels is a normal float.
 constexpr double kMinGeometry = 1e-30, kMaxGeometry = 1e30;
+// Principal points and their difference, in pixels of images at most 32768 wide: far beyond, X, Y
+// and depth lose every digit.
+constexpr double kMaxPixelOffset = 1e6;
 
 // Why `value` cannot be a focal length or a baseline ("" when it can); `name` names it.
 std::string scale_problem(double value, const std::string& name) {
@@ -136,7 +139,7 @@ std::string scale_problem(double value, const std::string& name) {
 }
 
 // Why a geometry cannot give depths ("" when it can): focal, baseline and their product must lie
-// in [kMinGeometry, kMaxGeometry], cx, cy and doffs must be finite. The names of focal and baseline
+// in [kMinGeometry, kMaxGeometry], cx, cy and doffs within kMaxPixelOffset. The names of focal and baseline
 // are those of the flags that gave them, if any.
 std::string geometry_range_problem(const StereoGeometry& g, const std::string& focal_name,
                                    const std::string& baseline_name) {
@@ -144,8 +147,12 @@ std::string geometry_range_problem(const StereoGeometry& g, const std::string& f
     if (const std::string problem = scale_problem(value, name); !problem.empty()) return problem;
   const std::string product = scale_problem(g.focal * g.baseline, focal_name + " x " + baseline_name + " =");
   if (!product.empty()) return product + ": depths would not fit a float";
-  for (const auto& [value, name] : {std::pair{g.cx, "cx"}, std::pair{g.cy, "cy"}, std::pair{g.doffs, "doffs"}})
+  for (const auto& [value, name] : {std::pair{g.cx, "cx"}, std::pair{g.cy, "cy"}, std::pair{g.doffs, "doffs"}}) {
     if (!std::isfinite(value)) return std::string(name) + " must be a finite number (is " + short_number(value) + ")";
+    if (std::abs(value) > kMaxPixelOffset)
+      return std::string(name) + " " + short_number(value) + " is too far from the image (at most " +
+             short_number(kMaxPixelOffset) + " px either way)";
+  }
   return "";
 }
 

@@ -225,8 +225,9 @@ const char* const kDeviceHelp =
 void RunFlags::add_to(CLI::App& app) {
   app.add_option("--backend", backend, kBackendHelp)->capture_default_str();
   app.add_option("--device", device, kDeviceHelp);
-  app.add_option("--threads", threads, "threads of the cpu backend (and of opencl's host steps); 0 = OpenMP's default (OMP_NUM_THREADS, else "
-                 "all cores), at most the hardware threads")
+  app.add_option("--threads", threads,
+                 "threads of the cpu backend (and of opencl's host steps); 0 = OpenMP's default (OMP_NUM_THREADS, "
+                 "else all cores), at most the hardware threads")
       ->check(CLI::Range(0, 4096))
       ->capture_default_str();
 }

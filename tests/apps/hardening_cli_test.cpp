@@ -113,6 +113,8 @@ TEST_F(Hardening, FocalAndBaselineMustGiveDepthsAFloatHolds) {
   expect_failure(depth + "--focal 400 --baseline inf", kUsage, "--baseline: 'inf' is too large");
   expect_failure(depth + "--focal 400 --baseline 1e-320", kUsage, "--baseline: '1e-320' is too small");
   expect_failure(depth + "--focal 400 --baseline 0.1 --cx nan", kUsage, "--cx: 'nan' is not a number");
+  expect_failure(depth + "--focal 400 --baseline 0.1 --doffs 1e308", kUsage,
+                 "doffs 1e+308 is too far from the image (at most 1e+06 px either way)");
   expect_failure(depth + "--focal 400 --baseline 0.1 --max-depth 1e999", kUsage, "--max-depth: '1e999' is too large");
 }
 
