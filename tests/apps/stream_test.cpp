@@ -478,17 +478,6 @@ TEST_F(Stream, SigtermStopsCleanlyWithEveryWrittenFileWhole) {
     expect_frame(read_kitti(folder_ / "out" / numbered("%05d.png", f)), f % kFrames, kExact, 1.0);
 }
 
-// A long sequence of links to the same six frames under l/ and r/, for runs that are stopped.
-void link_long_sequence(const fs::path& folder, int frames) {
-  fs::create_directories(folder / "l");
-  fs::create_directories(folder / "r");
-  for (int f = 0; f < frames; ++f) {
-    const std::string name = numbered("%05d.png", f);
-    fs::create_symlink(fs::absolute(folder / numbered("seq/left_%04d.png", f % kFrames)), folder / "l" / name);
-    fs::create_symlink(fs::absolute(folder / numbered("seq/right_%04d.png", f % kFrames)), folder / "r" / name);
-  }
-}
-
 int frames_in_video(const fs::path& path) {
   cv::VideoCapture video(path.string(), cv::CAP_FFMPEG);
   int frames = 0;
@@ -499,8 +488,14 @@ int frames_in_video(const fs::path& path) {
 TEST_F(Stream, SigintDeliveredTwiceAtOnceStopsCleanlyWithAWholePreview) {
   // `timeout -s INT` signals the process and then its group: two SIGINTs a moment apart are one
   // request. Before, the second ended the process at once: exit 130, no summary, an empty video.
-  write_sequence();
-  link_long_sequence(folder_, 500);
+  // The Tsukuba pair over and over: its frames take long enough that the second signal comes while
+  // the frames in flight are still being finished.
+  fs::create_directories(folder_ / "l");
+  fs::create_directories(folder_ / "r");
+  for (int f = 0; f < 500; ++f) {
+    fs::create_symlink(mctstereo::test::kData / "tsukuba/imL.png", folder_ / "l" / numbered("%05d.png", f));
+    fs::create_symlink(mctstereo::test::kData / "tsukuba/imR.png", folder_ / "r" / numbered("%05d.png", f));
+  }
   const std::string command = "cd " + shell_quoted(folder_.string()) + " && { " + shell_quoted(kProgram.string()) +
                               " stream --left l --right r " + kMatching +
                               "--disparity 'out/%05d.png' --preview-video p.avi --quiet > summary.txt 2>&1 & pid=$!; "
