@@ -139,12 +139,15 @@ class Samples {
 };
 
 // SIGINT and SIGTERM set a flag that the capture stage polls; a second one ends the process at once
-// (the capture may be blocked on a camera that delivers nothing). A second signal within
-// kRepeatGrace of the first is the same request delivered twice: `timeout -s INT` signals the
-// process and then its group, and a terminal's Ctrl-C reaches every process of the group.
+// (the capture may be blocked on a camera that delivers nothing), removing the preview video's
+// temporary first. A second signal within kRepeatGraceNs (1 s) of the first is the same request
+// delivered twice: `timeout -s INT` signals the process and then its group, and a terminal's
+// Ctrl-C reaches every process of the group.
 std::atomic<int> g_stop_signal{0};
 std::atomic<std::int64_t> g_first_stop_ns{0};
 constexpr std::int64_t kRepeatGraceNs = 1'000'000'000;
+char g_temporary_video[4096];                       // whole while g_temporary_video_set is true
+std::atomic<bool> g_temporary_video_set{false};
 
 std::int64_t monotonic_ns() {  // clock_gettime is async-signal-safe; steady_clock need not be
   timespec now {};
@@ -158,7 +161,9 @@ extern "C" void on_stop_signal(int signal) {
     g_stop_signal.store(signal);
     return;
   }
-  if (monotonic_ns() - g_first_stop_ns.load() > kRepeatGraceNs) ::_exit(128 + signal);
+  if (monotonic_ns() - g_first_stop_ns.load() <= kRepeatGraceNs) return;
+  if (g_temporary_video_set.load()) ::unlink(g_temporary_video);  // async-signal-safe, as _exit
+  ::_exit(128 + signal);
 }
 
 class StopSignals {
@@ -239,9 +244,17 @@ class PreviewVideo {
       : path_(path), destination_(regular_output_file(path, "preview video")) {
     temporary_ = destination_.parent_path() / ("." + destination_.stem().string() + ".tmp-" +
                                                std::to_string(::getpid()) + destination_.extension().string());
+    const std::string name = fs::absolute(temporary_).string();
+    if (name.size() < sizeof g_temporary_video) {
+      std::memcpy(g_temporary_video, name.c_str(), name.size() + 1);
+      g_temporary_video_set.store(true);
+    }
     writer_.open(temporary_.string(), cv::CAP_FFMPEG, fourcc, fps, size, true);
     if (!writer_.isOpened()) {
       remove_temporary();
+      const fs::path folder = destination_.parent_path().empty() ? fs::path(".") : destination_.parent_path();
+      if (::access(folder.c_str(), W_OK) != 0)
+        throw RuntimeError("cannot write preview video " + in_quotes(path) + ": " + std::strerror(errno));
       throw RuntimeError("cannot write preview video " + in_quotes(path) + ": OpenCV has no encoder for it here");
     }
   }
@@ -266,6 +279,7 @@ class PreviewVideo {
     std::error_code ec;
     fs::rename(temporary_, destination_, ec);
     if (ec) throw RuntimeError("cannot write preview video " + in_quotes(path_) + ": " + ec.message());
+    g_temporary_video_set.store(false);
     temporary_.clear();
   }
 
@@ -283,6 +297,7 @@ class PreviewVideo {
     return frames;
   }
   void remove_temporary() {
+    g_temporary_video_set.store(false);
     std::error_code ec;
     if (!temporary_.empty()) fs::remove(temporary_, ec);
   }

@@ -511,6 +511,30 @@ TEST_F(Stream, SigintDeliveredTwiceAtOnceStopsCleanlyWithAWholePreview) {
   EXPECT_EQ(frames_in_video(folder_ / "p.avi"), frames) << summary;
 }
 
+TEST_F(Stream, ASecondSigintMoreThanASecondLaterEndsAtOnceLeavingNoTemporary) {
+  // Frames slow enough (SGM over 256 disparities at 1280 x 720, one thread) that the frames in
+  // flight outlast the second signal.
+  cv::Mat left(720, 1280, CV_8UC1), right;
+  cv::RNG(7).fill(left, cv::RNG::UNIFORM, 0, 256);
+  cv::hconcat(left.colRange(8, 1280), left.colRange(0, 8), right);
+  ASSERT_TRUE(cv::imwrite((folder_ / "seq/l.png").string(), left));
+  ASSERT_TRUE(cv::imwrite((folder_ / "seq/r.png").string(), right));
+  fs::create_directories(folder_ / "l");
+  fs::create_directories(folder_ / "r");
+  for (int f = 0; f < 50; ++f) {
+    fs::create_symlink(folder_ / "seq/l.png", folder_ / "l" / numbered("%05d.png", f));
+    fs::create_symlink(folder_ / "seq/r.png", folder_ / "r" / numbered("%05d.png", f));
+  }
+  const std::string command = "cd " + shell_quoted(folder_.string()) + " && { " + shell_quoted(kProgram.string()) +
+                              " stream --left l --right r --preset sgm-full --num-disparities 256 --threads 1 "
+                              "--preview-video out/p.avi --quiet > summary.txt 2>&1 & pid=$!; "
+                              "while [ -z \"$(ls -A out)\" ] && kill -0 $pid 2>/dev/null; do sleep 0.02; done; "
+                              "kill -INT $pid; sleep 1.3; kill -INT $pid; wait $pid; echo $?; }";
+  const Result r = run_shell(command);
+  EXPECT_EQ(r.output, "130\n") << read_text(folder_ / "summary.txt");
+  EXPECT_TRUE(fs::is_empty(folder_ / "out")) << "the temporary of the preview video is removed";
+}
+
 TEST_F(Stream, PreviewVideoOnAFullDiskIsAnErrorAndLeavesNoVideo) {
   // A file size limit stands for the full disk (SIGXFSZ ignored: the write fails with EFBIG, as a
   // full disk fails with ENOSPC). Before, a truncated video and "wrote preview video", exit 0.
