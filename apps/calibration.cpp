@@ -6,11 +6,13 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <stdexcept>
@@ -18,6 +20,7 @@
 
 #include "depth_files.hpp"
 #include "errors.hpp"
+#include "input_files.hpp"
 #include "output_files.hpp"
 
 namespace mctstereo::app {
@@ -62,28 +65,95 @@ struct FileErrors {
 };
 
 std::string read_text(const std::string& path) {
-  const std::string what = "cannot read calibration " + in_quotes(path) + ": ";
-  std::error_code ec;
-  const fs::file_status status = fs::status(path, ec);
-  if (!fs::exists(status)) throw RuntimeError(what + "no such file");
-  if (fs::is_directory(status)) throw RuntimeError(what + "it is a folder, not a file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw RuntimeError(what + std::strerror(errno));
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw RuntimeError(what + "read error");
-  if (trimmed(text).empty()) throw RuntimeError(what + "the file is empty");
+  const std::string text = read_input_file(path, "calibration");
+  if (trimmed(text).empty()) throw RuntimeError("cannot read calibration " + in_quotes(path) + ": the file is empty");
   return text;
 }
 
-// A whole string as a number; nullopt when it is anything else.
+// A whole string as a finite number; nullopt when it is anything else.
 std::optional<double> parse_number(const std::string& text) {
-  const std::string t = trimmed(text);
-  if (t.empty()) return std::nullopt;
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(t.c_str(), &end);
-  if (end != t.c_str() + t.size() || errno == ERANGE || !std::isfinite(v)) return std::nullopt;
+  double v = 0.0;
+  if (!number_problem(text, v).empty()) return std::nullopt;
   return v;
+}
+
+// A cheap scan of a FileStorage file for how deeply its values nest: OpenCV's parsers recurse once
+// per level, so a file of a few megabytes of '[' (or of '{', or of XML tags, or of indentation)
+// overflows the stack before they can fail. Brackets inside strings count too, which only errs on
+// the safe side; a calibration file nests a few levels.
+constexpr int kMaxStorageNesting = 64;
+constexpr std::size_t kMaxStorageIndent = 1024;
+
+void check_storage_nesting(const std::string& path, const std::string& text) {
+  int depth = 0, deepest = 0;
+  std::size_t indent = 0, deepest_indent = 0;
+  bool line_start = true;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') {
+      line_start = true;
+      indent = 0;
+      continue;
+    }
+    if (line_start && (c == ' ' || c == '\t' || c == '-')) {  // YAML nests by indentation and '- '
+      deepest_indent = std::max(deepest_indent, ++indent);
+      continue;
+    }
+    line_start = false;
+    const char next = i + 1 < text.size() ? text[i + 1] : '\0';
+    if (c == '[' || c == '{' || (c == '<' && next != '/' && next != '?' && next != '!')) ++depth;
+    if (c == ']' || c == '}' || (c == '<' && next == '/') || (c == '/' && next == '>')) --depth;
+    deepest = std::max(deepest, depth);
+  }
+  if (deepest > kMaxStorageNesting || deepest_indent > kMaxStorageIndent)
+    throw RuntimeError("calibration " + in_quotes(path) + ": nested too deeply (" +
+                       (deepest > kMaxStorageNesting ? "more than " + std::to_string(kMaxStorageNesting) + " levels"
+                                                     : "indented by more than " + std::to_string(kMaxStorageIndent) +
+                                                           " characters") +
+                       "); a calibration nests a few levels");
+}
+
+// A number for messages, short whatever its size.
+std::string short_number(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", v);
+  return text;
+}
+
+// Depth is focal x baseline / (d + doffs) in float, X and Y are (x - cx) baseline / (d + doffs):
+// within these bounds every depth and coordinate of an image up to 32768 pixels is a normal float.
+constexpr double kMinGeometry = 1e-30, kMaxGeometry = 1e30;
+// Principal points and their difference, in pixels of images at most 32768 wide: far beyond, X, Y
+// and depth lose every digit.
+constexpr double kMaxPixelOffset = 1e6;
+
+// Why `value` cannot be a focal length or a baseline ("" when it can); `name` names it.
+std::string scale_problem(double value, const std::string& name) {
+  if (std::isnan(value)) return name + " is not a number";
+  if (value <= 0.0) return name + " must be positive (is " + short_number(value) + ")";
+  if (value < kMinGeometry)
+    return name + " " + short_number(value) + " is too small (at least " + short_number(kMinGeometry) + ")";
+  if (value > kMaxGeometry)
+    return name + " " + short_number(value) + " is too large (at most " + short_number(kMaxGeometry) + ")";
+  return "";
+}
+
+// Why a geometry cannot give depths ("" when it can): focal, baseline and their product must lie
+// in [kMinGeometry, kMaxGeometry], cx, cy and doffs within kMaxPixelOffset. The names of focal and baseline
+// are those of the flags that gave them, if any.
+std::string geometry_range_problem(const StereoGeometry& g, const std::string& focal_name,
+                                   const std::string& baseline_name) {
+  for (const auto& [value, name] : {std::pair{g.focal, focal_name}, std::pair{g.baseline, baseline_name}})
+    if (const std::string problem = scale_problem(value, name); !problem.empty()) return problem;
+  const std::string product = scale_problem(g.focal * g.baseline, focal_name + " x " + baseline_name + " =");
+  if (!product.empty()) return product + ": depths would not fit a float";
+  for (const auto& [value, name] : {std::pair{g.cx, "cx"}, std::pair{g.cy, "cy"}, std::pair{g.doffs, "doffs"}}) {
+    if (!std::isfinite(value)) return std::string(name) + " must be a finite number (is " + short_number(value) + ")";
+    if (std::abs(value) > kMaxPixelOffset)
+      return std::string(name) + " " + short_number(value) + " is too far from the image (at most " +
+             short_number(kMaxPixelOffset) + " px either way)";
+  }
+  return "";
 }
 
 // ---- Middlebury calib.txt ------------------------------------------------------------------------
@@ -128,8 +198,9 @@ Calibration read_middlebury(const std::string& path, const std::string& text, in
   const auto number = [&](const std::string& key) -> std::optional<double> {
     const auto it = values.find(key);
     if (it == values.end()) return std::nullopt;
-    const std::optional<double> v = parse_number(it->second);
-    if (!v) errors.malformed(key, "is not a number: '" + it->second + "'");
+    double v = 0.0;
+    const std::string problem = number_problem(it->second, v);
+    if (!problem.empty()) errors.malformed(key, problem + ": '" + it->second + "'");
     return v;
   };
   const auto integer = [&](const std::string& key) -> int {
@@ -190,6 +261,9 @@ class StorageReader {
         storage.open(path, cv::FileStorage::READ);
       } catch (const cv::Exception& e) {
         file_errors.fail("cannot parse it as an OpenCV FileStorage file (YAML, XML, JSON): " + trimmed(e.err));
+      } catch (const std::exception&) {
+        // A parser that lost its way (a length from garbage): its words say nothing about the file.
+        file_errors.fail("cannot parse it as an OpenCV FileStorage file (YAML, XML, JSON): malformed");
       }
       if (!storage.isOpened()) file_errors.fail("cannot open it as an OpenCV FileStorage file (YAML, XML, JSON)");
     }
@@ -204,7 +278,7 @@ class StorageReader {
     cv::Mat m;
     try {
       if (found.isMap()) found >> m;
-    } catch (const cv::Exception&) {
+    } catch (const std::exception&) {  // cv::Exception, or a std::length_error from a garbage count
       m.release();
     }
     if (m.empty() || m.channels() != 1)
@@ -401,6 +475,11 @@ Calibration read_storage(const std::vector<std::string>& paths, int image_width,
   }
   c.geometry.units = file.text("units").value_or("m");
   if (trimmed(c.geometry.units).empty()) errors.malformed("units", "is empty");
+  try {
+    (void)millimetres_per_unit(c.geometry.units);  // as the flag --units: a unit depth can be given in
+  } catch (const UsageError&) {
+    errors.malformed("units", "is '" + c.geometry.units + "', an unknown unit (known: m, cm, mm, in, ft)");
+  }
 
   if (c.needs_rectification) {
     // Remapping needs each camera's rotation and projection and the size the maps are made for.
@@ -453,6 +532,7 @@ Calibration read_calibration(const std::vector<std::string>& paths, int image_wi
       throw RuntimeError("calibration " + in_quotes(path) +
                          ": unknown format: expected a Middlebury calib.txt (cam0=[...], baseline=...) or an OpenCV "
                          "FileStorage file (.yml, .yaml, .xml, .json)");
+    check_storage_nesting(path, text);
   }
   return read_storage(paths, image_width, image_height);
 }
@@ -496,11 +576,25 @@ void check_calibration_fits(const Calibration& calibration, int width, int heigh
                      ": use the calibration of that size (scaling an image scales focal, cx, cy and doffs)");
 }
 
+std::string number_problem(const std::string& text, double& value) {
+  const std::string t = trimmed(text);
+  char* end = nullptr;
+  errno = 0;
+  value = t.empty() ? 0.0 : std::strtod(t.c_str(), &end);
+  if (t.empty() || end != t.c_str() + t.size() || std::isnan(value)) return "is not a number";
+  if (std::isinf(value) || (errno == ERANGE && std::abs(value) > 1.0)) return "is too large";
+  // strtod flushes what lies below the smallest normal double towards 0, with ERANGE.
+  if (errno == ERANGE) return "is too small (below " + number_text(std::numeric_limits<double>::min()) + ")";
+  return "";
+}
+
 const CLI::Validator& positive_number() {
   static const CLI::Validator validator(
       [](std::string& text) -> std::string {
-        const std::optional<double> v = parse_number(text);
-        return v && *v > 0.0 ? "" : "must be a positive number, not '" + text + "'";
+        double v = 0.0;
+        const std::string problem = number_problem(text, v);
+        if (!problem.empty() && problem != "is not a number") return "'" + text + "' " + problem;
+        return problem.empty() && v > 0.0 ? "" : "must be a positive number, not '" + text + "'";
       },
       "POSITIVE");
   return validator;
@@ -564,11 +658,10 @@ std::optional<Calibration> CalibrationFlags::resolve(int width, int height, cons
   if (cx_) c.geometry.cx = *cx_;
   if (cy_) c.geometry.cy = *cy_;
   if (doffs_) c.geometry.doffs = *doffs_;
-  try {
-    c.geometry.validate();
-  } catch (const std::invalid_argument& e) {
-    throw UsageError(std::string("calibration ") + (files_.empty() ? "flags" : in_quotes(c.source)) + ": " + e.what());
-  }
+  const std::string problem =
+      geometry_range_problem(c.geometry, focal_ ? "--focal" : "focal", baseline_ ? "--baseline" : "baseline");
+  if (!problem.empty())
+    throw UsageError(std::string("calibration ") + (files_.empty() ? "flags" : in_quotes(c.source)) + ": " + problem);
   return c;
 }
 

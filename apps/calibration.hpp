@@ -72,6 +72,11 @@ void write_calibration(const std::string& path, const Calibration& calibration);
 /// size is refused as well: a scaled image needs the calibration of its own size.
 void check_calibration_fits(const Calibration& calibration, int width, int height, const std::string& image);
 
+/// Why `text` is not a finite number: "is not a number" (a word, an empty text, nan), "is too large"
+/// (inf, or beyond a double) or "is too small (below 2.22507e-308)" (closer to 0 than the smallest
+/// normal double); "" when it is one, stored in `value`.
+std::string number_problem(const std::string& text, double& value);
+
 /// A check of CLI11 for flags that take a positive finite number ("must be a positive number, not X").
 const CLI::Validator& positive_number();
 

@@ -75,8 +75,10 @@
 #include <sstream>
 #include <tuple>
 
+#include "calibration.hpp"
 #include "errors.hpp"
 #include "eval_metrics.hpp"
+#include "input_files.hpp"
 #include "io.hpp"
 #include "machine_info.hpp"
 #include "output_files.hpp"
@@ -156,6 +158,9 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // --- Scenes -------------------------------------------------------------------------------------
 
+// No search reaches beyond min 1024 + 2048 disparities (StereoParams::validate).
+constexpr int kMaxSceneDisparity = 4096;
+
 // One scene as scene.txt describes it.
 struct Scene {
   fs::path folder;
@@ -174,15 +179,23 @@ struct Scene {
   }
   double number(const std::string& k) const {
     const std::string& text = key(k);
-    try {
-      std::size_t used = 0;
-      const double v = std::stod(text, &used);
-      if (trim(text.substr(used)).empty() && std::isfinite(v)) return v;
-    } catch (const std::exception&) {
-    }
-    throw RuntimeError("scene " + in_quotes(folder / "scene.txt") + ": " + k + "=" + text + " is not a number");
+    double value = 0.0;
+    const std::string problem = number_problem(text, value);
+    if (!problem.empty())
+      throw RuntimeError("scene " + in_quotes(folder / "scene.txt") + ": " + k + "=" + text + " " + problem);
+    return value;
   }
   double number_or(const std::string& k, double fallback) const { return has(k) ? number(k) : fallback; }
+  // A disparity bound (min_disp, max_disp; NaN fallback: the key is needed), within what the matcher
+  // searches, so that it fits an int as written.
+  double disparity_or(const std::string& k, double fallback) const {
+    const double value = std::isnan(fallback) || has(k) ? number(k) : fallback;
+    if (std::abs(value) > kMaxSceneDisparity)
+      throw RuntimeError("scene " + in_quotes(folder / "scene.txt") + ": " + k + "=" + key(k) + " is too " +
+                         (value > 0 ? "large" : "small") + " (disparities lie in [-" +
+                         std::to_string(kMaxSceneDisparity) + ", " + std::to_string(kMaxSceneDisparity) + "])");
+    return value;
+  }
   std::string file(const std::string& name_in_scene) const { return (folder / name_in_scene).string(); }
 };
 
@@ -212,18 +225,16 @@ MapView<T> mutable_map_view(cv::Mat& m) {
   return {m.ptr<T>(0), m.cols, m.rows, static_cast<std::ptrdiff_t>(m.step[0] / sizeof(T))};
 }
 
+// The largest ground truth read: the largest image the matcher takes.
+constexpr long kMaxPfmSide = 32768;
+
 // A PFM file as Middlebury 2014 stores ground truth: "Pf" (one channel), width and height, a
 // scale whose sign is the byte order (negative: little-endian), one whitespace byte, then 32-bit
 // floats with the bottom row first. Returned top row first, CV_32F.
 cv::Mat read_pfm(const std::string& path, const std::string& role) {
   const std::string what = role + " " + in_quotes(path);
-  std::error_code ec;
-  const fs::file_status status = fs::status(path, ec);
-  if (!fs::exists(status)) throw RuntimeError("cannot read " + what + ": no such file");
-  if (fs::is_directory(status)) throw RuntimeError("cannot read " + what + ": it is a folder, not a PFM file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw RuntimeError("cannot read " + what + ": " + std::strerror(errno));
-  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string text = read_input_file(path, role);
+  const std::vector<unsigned char> bytes(text.begin(), text.end());
 
   std::size_t at = 0;
   const auto skip_space = [&] {
@@ -251,9 +262,14 @@ cv::Mat read_pfm(const std::string& path, const std::string& role) {
   } catch (const std::exception&) {
     width = 0;
   }
-  if (width < 1 || height < 1 || width > 65536 || height > 65536 || !std::isfinite(scale) || scale == 0.0)
-    throw RuntimeError(what + ": bad PFM header '" + magic + " " + width_text + " " + height_text + " " + scale_text +
-                       "' (expected 'Pf WIDTH HEIGHT SCALE', a non-zero scale whose sign is the byte order)");
+  const std::string header = "'" + magic + " " + width_text + " " + height_text + " " + scale_text + "'";
+  if (width < 1 || height < 1 || !std::isfinite(scale) || scale == 0.0)
+    throw RuntimeError(what + ": bad PFM header " + header +
+                       " (expected 'Pf WIDTH HEIGHT SCALE', a non-zero scale whose sign is the byte order)");
+  if (width > kMaxPfmSide || height > kMaxPfmSide)
+    throw RuntimeError(what + ": PFM header " + header + ": " + width_text + "x" + height_text +
+                       " is too large (at most " + std::to_string(kMaxPfmSide) + " x " + std::to_string(kMaxPfmSide) +
+                       ", the largest image matched)");
   // Exactly one whitespace byte ends the header: the samples may begin with a byte that looks like one.
   if (at >= bytes.size() || !std::isspace(bytes[at]))
     throw RuntimeError(what + ": bad PFM header: no line break after the scale");
@@ -384,8 +400,8 @@ SceneData load_scene(const fs::path& folder) {
     s.mask_source = "ground-truth-only";
   }
 
-  s.min_disparity = static_cast<int>(std::floor(scene.number_or("min_disp", 0.0)));
-  const int max_disp = static_cast<int>(std::ceil(scene.number("max_disp")));
+  s.min_disparity = static_cast<int>(std::floor(scene.disparity_or("min_disp", 0.0)));
+  const int max_disp = static_cast<int>(std::ceil(scene.disparity_or("max_disp", kNaN)));
   if (max_disp < s.min_disparity)
     throw RuntimeError("scene " + in_quotes(folder / "scene.txt") + ": max_disp=" + std::to_string(max_disp) +
                        " is below min_disp=" + std::to_string(s.min_disparity));
@@ -1034,8 +1050,7 @@ Json settings_json(const Evaluation& ev, int threads_requested) {
 }  // namespace
 
 std::map<std::string, std::string> read_scene_file(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw RuntimeError("cannot read " + in_quotes(path));
+  std::istringstream in(read_input_file(path.string(), "scene"));
   std::map<std::string, std::string> keys;
   std::string line;
   while (std::getline(in, line)) {

@@ -268,6 +268,12 @@ InputKind kind_of(const std::string& path, std::string_view flag) {
   if (!fs::exists(status))
     throw RuntimeError("cannot open " + std::string(flag) + " " + in_quotes(path) + ": no such file or folder");
   if (fs::is_directory(status)) return InputKind::Folder;
+  // A FIFO without a writer would block the video reader's open() for ever; a camera's device
+  // (a character device) is a video as OpenCV reads it.
+  if (fs::is_fifo(status) || fs::is_socket(status) || fs::is_block_file(status))
+    throw RuntimeError("cannot open " + std::string(flag) + " " + in_quotes(path) + ": it is a " +
+                       (fs::is_fifo(status) ? "FIFO" : fs::is_socket(status) ? "socket" : "block device") +
+                       ", not a video file, folder or camera");
   if (cv::haveImageReader(path))
     throw UsageError(std::string(flag) + " " + in_quotes(path) +
                      " is a single image: give a folder or a printf pattern ('left_%04d.png') of an image "

@@ -15,8 +15,10 @@
 #include <fstream>
 #include <iterator>
 #include <limits>
+#include <optional>
 
 #include "errors.hpp"
+#include "input_files.hpp"
 #include "output_files.hpp"
 
 namespace mctstereo::app {
@@ -32,17 +34,10 @@ std::string lower_extension(const std::string& path) {
 namespace {
 
 std::vector<std::uint8_t> read_bytes(const std::string& path, std::string_view role) {
-  const std::string what = "cannot read " + std::string(role) + " " + in_quotes(path) + ": ";
-  std::error_code ec;
-  const fs::file_status status = fs::status(path, ec);
-  if (!fs::exists(status)) throw RuntimeError(what + "no such file");
-  if (fs::is_directory(status)) throw RuntimeError(what + "it is a folder, not an image");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw RuntimeError(what + std::strerror(errno));
-  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw RuntimeError(what + "read error");
-  if (bytes.empty()) throw RuntimeError(what + "the file is empty");
-  return bytes;
+  const std::string text = read_input_file(path, role);
+  if (text.empty())
+    throw RuntimeError("cannot read " + std::string(role) + " " + in_quotes(path) + ": the file is empty");
+  return {text.begin(), text.end()};
 }
 
 // The container a file claims to be, from its first bytes; empty when none of ours.
@@ -53,28 +48,70 @@ std::string signature_name(const std::vector<std::uint8_t>& b) {
   return "";
 }
 
-// libpng's default error handler prints "libpng error: ..." to stderr before OpenCV returns an
-// empty image; our own message says the same in one line, so stderr is closed while decoding.
-class StderrSilenced {
- public:
-  StderrSilenced() : saved_(::dup(STDERR_FILENO)) {
-    const int null = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
-    if (saved_ >= 0 && null >= 0) ::dup2(null, STDERR_FILENO);
-    if (null >= 0) ::close(null);
-  }
-  ~StderrSilenced() {
-    if (saved_ < 0) return;
-    ::dup2(saved_, STDERR_FILENO);
-    ::close(saved_);
-  }
-  StderrSilenced(const StderrSilenced&) = delete;
-  StderrSilenced& operator=(const StderrSilenced&) = delete;
+// The largest image read: the matcher's limit, which is also OpenCV's 2^30 pixels.
+constexpr long kMaxImageSide = 32768;
 
- private:
-  int saved_;
+struct DeclaredSize {
+  long width = 0, height = 0;  // saturated at kMaxImageSide + 1
+  std::string text;            // "WIDTHxHEIGHT" as the header writes it
 };
 
+DeclaredSize declared(std::uint32_t width, std::uint32_t height) {
+  return {std::min<long>(width, kMaxImageSide + 1), std::min<long>(height, kMaxImageSide + 1),
+          std::to_string(width) + "x" + std::to_string(height)};
+}
+
+std::uint32_t big_endian(const std::vector<std::uint8_t>& b, std::size_t at, int bytes) {
+  std::uint32_t v = 0;
+  for (int i = 0; i < bytes; ++i) v = v << 8 | b[at + i];
+  return v;
+}
+
+// The size a PNG, PNM or JPEG header declares, read before decoding: OpenCV refuses an image beyond
+// its limits as if it were damaged. Nullopt when the header says nothing readable.
+std::optional<DeclaredSize> declared_size(const std::vector<std::uint8_t>& b) {
+  const std::string kind = signature_name(b);
+  if (kind == "PNG" && b.size() >= 24) return declared(big_endian(b, 16, 4), big_endian(b, 20, 4));
+  if (kind == "PGM" || kind == "PPM") {
+    std::size_t at = 2;
+    DeclaredSize size;
+    for (long* n : {&size.width, &size.height}) {
+      while (at < b.size() && (std::isspace(b[at]) || b[at] == '#')) {  // white space and comments
+        if (b[at] == '#')
+          while (at < b.size() && b[at] != '\n') ++at;
+        else
+          ++at;
+      }
+      if (at >= b.size() || !std::isdigit(b[at])) return std::nullopt;
+      if (!size.text.empty()) size.text += 'x';
+      for (; at < b.size() && std::isdigit(b[at]); ++at) {
+        *n = std::min(*n * 10 + (b[at] - '0'), kMaxImageSide + 1);
+        size.text += static_cast<char>(b[at]);
+      }
+    }
+    return size;
+  }
+  if (kind == "JPEG") {
+    // Segments from the start of the file up to the frame header (SOFn: not DHT, JPG or DAC).
+    for (std::size_t at = 2; at + 9 <= b.size() && b[at] == 0xFF;) {
+      const std::uint8_t marker = b[at + 1];
+      if (marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC)
+        return declared(big_endian(b, at + 7, 2), big_endian(b, at + 5, 2));
+      at += 2 + big_endian(b, at + 2, 2);
+    }
+  }
+  return std::nullopt;
+}
+
+void check_declared_size(const std::vector<std::uint8_t>& bytes, const std::string& path, std::string_view role) {
+  const std::optional<DeclaredSize> size = declared_size(bytes);
+  if (size && (size->width > kMaxImageSide || size->height > kMaxImageSide))
+    throw RuntimeError(std::string(role) + " " + in_quotes(path) + " is " + size->text + ": too large (at most " +
+                       std::to_string(kMaxImageSide) + " x " + std::to_string(kMaxImageSide) + " pixels)");
+}
+
 cv::Mat decode(const std::vector<std::uint8_t>& bytes, int flags, const std::string& path, std::string_view role) {
+  check_declared_size(bytes, path, role);
   cv::Mat image;
   try {
     StderrSilenced quiet;
@@ -126,6 +163,18 @@ cv::Mat read_input_image(const std::string& path, std::string_view role) {
 
 cv::Mat read_gray_image(const std::string& path, std::string_view role) {
   return decode(read_bytes(path, role), cv::IMREAD_GRAYSCALE, path, role);
+}
+
+StderrSilenced::StderrSilenced() : saved_(::dup(STDERR_FILENO)) {
+  const int null = ::open("/dev/null", O_WRONLY | O_CLOEXEC);
+  if (saved_ >= 0 && null >= 0) ::dup2(null, STDERR_FILENO);
+  if (null >= 0) ::close(null);
+}
+
+StderrSilenced::~StderrSilenced() {
+  if (saved_ < 0) return;
+  ::dup2(saved_, STDERR_FILENO);
+  ::close(saved_);
 }
 
 ImageView image_view(const cv::Mat& image) {

@@ -23,6 +23,20 @@ cv::Mat read_input_image(const std::string& path, std::string_view role);
 /// ground truth and masks. RuntimeError as read_input_image.
 cv::Mat read_gray_image(const std::string& path, std::string_view role);
 
+/// Sends stderr to /dev/null while it lives. Decoders (libpng, FFmpeg) print their own complaints
+/// there before OpenCV returns an empty result; the program's one-line error says the same. Only
+/// for a moment when no other thread writes to stderr.
+class StderrSilenced {
+ public:
+  StderrSilenced();
+  ~StderrSilenced();
+  StderrSilenced(const StderrSilenced&) = delete;
+  StderrSilenced& operator=(const StderrSilenced&) = delete;
+
+ private:
+  int saved_;
+};
+
 /// A view of an 8-bit gray or BGR matrix (as returned by read_input_image).
 ImageView image_view(const cv::Mat& image);
 

@@ -2,10 +2,13 @@
 // ends as one line "mctstereo: error: ..." on stderr with exit status 2 (usage) or 1 (runtime).
 #include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/core/ocl.hpp>
 
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstdlib>
+#include <cstring>
 #include <iostream>
 #include <new>
 #include <string_view>
@@ -15,6 +18,7 @@
 #include "errors.hpp"
 #include "eval.hpp"
 #include "match.hpp"
+#include "options.hpp"
 #include "render.hpp"
 #include "stream.hpp"
 
@@ -41,11 +45,22 @@ void restart_with_short_openmp_spin(char** argv) {
   execv("/proc/self/exe", argv);  // returns only when it fails: then run on with the default spin
 }
 
+// OpenCV runs some of its own functions (remap, ORB, colour conversion) through OpenCL when it
+// finds a device, and a driver that cannot start there (PoCL in a container without /sys) aborts
+// the whole process. The program needs none of it: its own OpenCL backend does not go through
+// OpenCV. The variable is read when OpenCV first looks for OpenCL, in whichever thread; the call
+// covers this thread should OpenCV have looked already. A setting of the user's own stays.
+void keep_opencv_off_opencl() {
+  setenv("OPENCV_OPENCL_RUNTIME", "disabled", 0);
+  cv::ocl::setUseOpenCL(false);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace mctstereo::app;
   restart_with_short_openmp_spin(argv);
+  keep_opencv_off_opencl();
   CLI::App app{"mctstereo: dense stereo matching on the (modified) census transform, coarse to fine."};
   app.name("mctstereo");
   app.require_subcommand(1);
@@ -56,6 +71,7 @@ int main(int argc, char** argv) {
   BenchCommand bench(app);
   DevicesCommand devices(app);
   RenderCommand render(app);
+  refuse_empty_and_non_finite_numbers(app);
 
   // CLI11 would call a misspelt subcommand a stray argument; name it instead.
   if (argc > 1 && argv[1][0] != '-') {
@@ -80,6 +96,9 @@ int main(int argc, char** argv) {
     if (bench.selected()) bench.run();
     if (devices.selected()) devices.run();
     if (render.selected()) render.run();
+    // The summary is output too: stdout on a full disk (or > /dev/full) is a failure.
+    if (!(std::cout << std::flush))
+      return fail(kExitRuntime, std::string("cannot write to stdout: ") + std::strerror(errno));
     return 0;
   } catch (const UsageError& e) {
     return fail(kExitUsage, e.what());
@@ -91,7 +110,8 @@ int main(int argc, char** argv) {
   } catch (const cv::Exception& e) {
     return fail(kExitRuntime, "OpenCV: " + e.err);
   } catch (const std::bad_alloc&) {
-    return fail(kExitRuntime, "out of memory");
+    return fail(kExitRuntime, "out of memory: the memory (or the limit of 'ulimit -v') is too small for this work; "
+                              "fewer --threads, a larger --scale or fewer --num-disparities need less");
   } catch (const std::exception& e) {
     return fail(kExitRuntime, e.what());
   }

@@ -1,10 +1,14 @@
 #include "options.hpp"
 
+#include <pthread.h>
+
 #include <cctype>
 #include <iostream>
 #include <sstream>
 #include <stdexcept>
+#include <vector>
 
+#include "calibration.hpp"
 #include "errors.hpp"
 
 namespace mctstereo::app {
@@ -91,7 +95,8 @@ ParameterFlags::ParameterFlags(CLI::App& app) {
       "right pixel x - d",
       [&v](StereoParams& p) { p.min_disparity = v.min_disparity; });
   add(app, "--num-disparities", v.num_disparities,
-      "number of disparities searched (any count, [1, 2048]): min .. min + N - 1",
+      "number of disparities searched (any count, [1, 2048]): min .. min + N - 1, with min + N - 1 <= 2039 (the "
+      "output holds 16 x d in 16 bits)",
       [&v](StereoParams& p) { p.num_disparities = v.num_disparities; });
   app.add_option("--census", census_, "local transform: ct (census) or mct (modified census, 3x3 mean reference)")
       ->check(CLI::IsMember({"ct", "mct"}))
@@ -220,7 +225,9 @@ const char* const kDeviceHelp =
 void RunFlags::add_to(CLI::App& app) {
   app.add_option("--backend", backend, kBackendHelp)->capture_default_str();
   app.add_option("--device", device, kDeviceHelp);
-  app.add_option("--threads", threads, "threads of the cpu backend (and of opencl's host steps); 0 = all cores")
+  app.add_option("--threads", threads,
+                 "threads of the cpu backend (and of opencl's host steps); 0 = OpenMP's default (OMP_NUM_THREADS, "
+                 "else all cores), at most the hardware threads")
       ->check(CLI::Range(0, 4096))
       ->capture_default_str();
 }
@@ -246,13 +253,55 @@ MatcherOptions RunFlags::matcher_options(bool compute_right, bool compute_confid
   return options;
 }
 
+namespace {
+
+// How many of `wanted` threads (this one included) can be started now. libgomp ends the process
+// ("Thread creation failed") when it cannot start a thread of its team, which a memory limit
+// (ulimit -v: each thread reserves a stack) brings about; a team of threads that did start, with
+// the same default stack, and ended again shows what libgomp will be able to start. OMP_STACKSIZE
+// would give libgomp's threads another stack: then the count is an estimate.
+int startable_threads(int wanted) {
+  std::vector<pthread_t> started;
+  started.reserve(static_cast<std::size_t>(wanted));
+  for (int i = 1; i < wanted; ++i) {
+    pthread_t thread;
+    if (::pthread_create(&thread, nullptr, [](void*) -> void* { return nullptr; }, nullptr) != 0) break;
+    started.push_back(thread);
+  }
+  for (pthread_t thread : started) ::pthread_join(thread, nullptr);
+  return static_cast<int>(started.size()) + 1;
+}
+
+std::string mebibytes(std::size_t bytes) { return std::to_string((bytes + (1u << 20) - 1) >> 20) + " MiB"; }
+
+}  // namespace
+
 Matcher RunFlags::make_matcher(int width, int height, const StereoParams& params, bool compute_right,
                                bool compute_confidence) const {
+  Matcher matcher = construct_matcher(width, height, params, compute_right, compute_confidence, threads);
+  if (matcher.backend() != Backend::Cpu || matcher.threads() <= 1) return matcher;
+  // The threads start at the first frame, after the matcher's memory is taken: the test comes now.
+  const int wanted = matcher.threads(), startable = startable_threads(wanted);
+  if (startable >= wanted) return matcher;
+  std::cerr << "mctstereo: note: only " << startable << " of " << wanted
+            << " threads could be started (memory limit?); matching with " << startable << "\n";
+  { const Matcher released = std::move(matcher); }  // its memory goes before the smaller one takes some
+  return construct_matcher(width, height, params, compute_right, compute_confidence, startable);
+}
+
+Matcher RunFlags::construct_matcher(int width, int height, const StereoParams& params, bool compute_right,
+                                    bool compute_confidence, int thread_count) const {
   const Backend requested = parsed_backend();
+  MatcherOptions options = matcher_options(compute_right, compute_confidence);
+  options.threads = thread_count;
   try {
-    Matcher matcher(width, height, params, requested, matcher_options(compute_right, compute_confidence));
+    Matcher matcher(width, height, params, requested, options);
     if (!matcher.notice().empty()) std::cerr << "mctstereo: note: " << matcher.notice() << "\n";
     return matcher;
+  } catch (const std::bad_alloc&) {
+    throw RuntimeError("out of memory: matching " + std::to_string(width) + "x" + std::to_string(height) +
+                       " needs about " + mebibytes(estimate_memory(params, width, height, options)) +
+                       " (fewer --threads, a larger --scale or fewer --num-disparities need less)");
   } catch (const std::invalid_argument& e) {
     // No opencl backend in this build: the command asked for what cannot be.
     if (requested == Backend::OpenCL && !have_opencl()) throw UsageError(std::string("--backend opencl: ") + e.what());
@@ -293,6 +342,26 @@ void check_parameters(const StereoParams& params, int width, int height) {
   if (!problems.empty())
     throw_invalid_parameters(problems, "invalid parameters for the " + std::to_string(width) + "x" +
                                            std::to_string(height) + " image: ");
+}
+
+void refuse_empty_and_non_finite_numbers(CLI::App& app) {
+  const CLI::Validator not_empty(
+      [](std::string& text) -> std::string { return text.empty() ? "the value is empty" : ""; }, "");
+  const CLI::Validator finite(
+      [](std::string& text) -> std::string {
+        double value = 0.0;
+        const std::string problem = number_problem(text, value);
+        return problem.empty() ? "" : "'" + text + "' " + problem;
+      },
+      "");
+  for (CLI::Option* option : app.get_options()) {
+    const std::string type = option->get_type_name();
+    const bool integer = type.rfind("INT", 0) == 0 || type.rfind("UINT", 0) == 0;
+    const bool floating = type.rfind("FLOAT", 0) == 0;
+    if (floating) option->transform(finite);  // transform: before the option's own checks
+    if (integer || floating) option->transform(not_empty);
+  }
+  for (CLI::App* subcommand : app.get_subcommands({})) refuse_empty_and_non_finite_numbers(*subcommand);
 }
 
 Json parameters_json(const StereoParams& p) {

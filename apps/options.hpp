@@ -61,8 +61,15 @@ struct RunFlags {
   /// stderr when it fell back to the cpu backend. RuntimeError naming the flag when the OpenCL
   /// device cannot be had (none installed, --device names none, a kernel fails to build, too
   /// little device memory); std::invalid_argument (usage) for bad parameters.
+  /// With the cpu backend, as many threads as can be started (a memory limit may allow fewer than
+  /// --threads: a note says so), and RuntimeError naming the size and the memory needed when there
+  /// is not enough memory for the matcher.
   Matcher make_matcher(int width, int height, const StereoParams& params, bool compute_right = false,
                        bool compute_confidence = false) const;
+
+ private:
+  Matcher construct_matcher(int width, int height, const StereoParams& params, bool compute_right,
+                            bool compute_confidence, int thread_count) const;
 };
 
 /// The help text of --backend and --device.
@@ -74,6 +81,11 @@ void check_parameters(const StereoParams& params);
 /// Throws UsageError("invalid parameters: ...") when `params` do not suit a width x height image,
 /// with every problem StereoParams::validate found on one line and the flag to change named.
 void check_parameters(const StereoParams& params, int width, int height);
+
+/// Puts before the checks of every numeric flag of `app` and of its subcommands one that refuses an
+/// empty value (which CLI11 would read as 0) and, for floating-point flags, anything but a finite
+/// number: NaN, infinities, numbers beyond a double or closer to 0 than a normal one.
+void refuse_empty_and_non_finite_numbers(CLI::App& app);
 
 /// Every field of `params`, named as in StereoParams.
 Json parameters_json(const StereoParams& params);

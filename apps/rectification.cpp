@@ -179,7 +179,16 @@ void Rectifier::rectify(const cv::Mat& left, const cv::Mat& right, cv::Mat& left
   cv::remap(right, right_out, right_x_, right_y_, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
 }
 
+// ORB finds no feature within 31 pixels (its edge threshold and patch) of a border, and shrinks
+// the image over 8 levels: a smaller picture has none to match, and OpenCV fails on it.
+constexpr int kMinCheckedSide = 64;
+
 RectificationReport check_rectification(const cv::Mat& left, const cv::Mat& right) {
+  for (const cv::Mat* view : {&left, &right})
+    if (view->cols < kMinCheckedSide || view->rows < kMinCheckedSide)
+      throw RuntimeError("the pair is " + size_text(view->cols, view->rows) +
+                         ": too small to check its rectification (matching features needs at least " +
+                         std::to_string(kMinCheckedSide) + " x " + std::to_string(kMinCheckedSide) + " pixels)");
   const cv::Mat left_gray = gray_of(left, "left"), right_gray = gray_of(right, "right");
 
   cv::Ptr<cv::ORB> orb = cv::ORB::create(3000);

@@ -11,9 +11,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <iostream>
-#include <iterator>
 #include <limits>
 #include <optional>
 #include <sstream>
@@ -21,6 +19,7 @@
 #include <vector>
 
 #include "errors.hpp"
+#include "input_files.hpp"
 #include "output_files.hpp"
 #include "statistics.hpp"
 
@@ -183,10 +182,7 @@ std::uint8_t colour_channel(double value, PlyType type) {
 
 Cloud read_ply(const std::string& path) {
   const std::string where = "point cloud " + in_quotes(path);
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw RuntimeError("cannot open " + where);
-  const std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-  if (in.bad()) throw RuntimeError("cannot read " + where);
+  const std::string bytes = read_input_file(path, "point cloud");
   if (bytes.rfind("ply\n", 0) != 0 && bytes.rfind("ply\r\n", 0) != 0)
     throw RuntimeError(where + " is not a PLY file (it does not start with 'ply')");
 
@@ -330,15 +326,31 @@ Cloud read_ply(const std::string& path) {
   return cloud;
 }
 
+// A focal length beyond any camera's: the picture would be one pixel of the cloud.
+constexpr double kMaxFocal = 1e9;
+
 // ---- the view ---------------------------------------------------------------------------------
 
+// One side of --size: digits only, so that neither a sign nor a wrap-around ("4294967297" read as
+// 1) gets through; nullopt outside 1 .. kMaxSide.
+constexpr int kMaxSide = 16384;
+
+std::optional<int> parse_side(const std::string& digits) {
+  if (digits.empty() || digits.size() > 5 || digits.find_first_not_of("0123456789") != std::string::npos)
+    return std::nullopt;
+  const int side = std::stoi(digits);
+  if (side < 1 || side > kMaxSide) return std::nullopt;
+  return side;
+}
+
 cv::Size parse_size(const std::string& text) {
-  int width = 0, height = 0;
-  char x = 0, extra = 0;
-  if (std::sscanf(text.c_str(), "%d%c%d%c", &width, &x, &height, &extra) != 3 || (x != 'x' && x != 'X') ||
-      width < 1 || height < 1 || width > 16384 || height > 16384)
-    throw UsageError("--size '" + text + "': expected WIDTHxHEIGHT, each 1 .. 16384, e.g. 800x600");
-  return {width, height};
+  const std::size_t x = text.find_first_of("xX");
+  const std::optional<int> width = x == std::string::npos ? std::nullopt : parse_side(text.substr(0, x));
+  const std::optional<int> height = x == std::string::npos ? std::nullopt : parse_side(text.substr(x + 1));
+  if (!width || !height)
+    throw UsageError("--size '" + text + "': expected WIDTHxHEIGHT, each 1 .. " + std::to_string(kMaxSide) +
+                     ", e.g. 800x600");
+  return {*width, *height};
 }
 
 cv::Vec3b parse_colour(const std::string& text) {  // as B, G, R
@@ -419,6 +431,11 @@ void RenderCommand::run() const {
   // Every check that needs no reading comes first.
   const cv::Size size = parse_size(size_);
   const cv::Vec3b background = parse_colour(background_);
+  if (focal_ > kMaxFocal) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%g", focal_);
+    throw UsageError(std::string("--focal ") + text + " is too large (at most 1e+09 pixels)");
+  }
   check_output_path(output_, {cloud_}, "rendered view");
   if (!cv::haveImageWriter(output_))
     throw UsageError("-o " + in_quotes(output_) + ": cannot write an image with this extension (use .png or .jpg)");

@@ -15,6 +15,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <exception>
 #include <filesystem>
 #include <functional>
@@ -24,6 +25,7 @@
 #include <optional>
 #include <set>
 #include <sstream>
+#include <system_error>
 #include <thread>
 #include <tuple>
 #include <vector>
@@ -55,7 +57,8 @@ Outputs (per-frame patterns take the frame number, e.g. 'out/disp_%05d.png'):
   --depth P       one depth map per frame, as match --depth: .pfm (float, units of the baseline;
                   relative depth 1/d without a calibration) or .png (16-bit, millimetres)
   --preview-video F   left frame and colour disparity side by side (turbo over the fixed range
-                  [min, min + N - 1], black = invalid): .avi (MJPG), .mkv (FFV1, lossless), .mp4
+                  [min, min + N - 1], black = invalid): .avi (MJPG), .mkv (FFV1, lossless), .mp4;
+                  read back at the end, and an error unless every frame is in it (a full disk)
   --show          the same preview in a window with the live frame rate (q or Esc stops)
 Calibration (--calib FILE, or --focal and --baseline): as match. A file of the raw cameras (K1 D1
 K2 D2 without "rectified: 1") has every frame rectified before matching, with maps computed once;
@@ -63,7 +66,8 @@ the outputs are then in the rectified left frame.
 Capture, matching and writing run on their own threads. The summary line (stdout) gives the frames,
 the latency from a frame's capture to its outputs being written (mean, 95th percentile), the
 median matching time and the frame rate. Ctrl-C (SIGINT) or SIGTERM stops after the frames in
-flight are written, with exit status 0; a second Ctrl-C ends at once (status 130).
+flight are written, with exit status 0; a second Ctrl-C more than 1 s later ends at once (status
+130), one within 1 s is taken as the same request.
 )";
 
 // A fixed-capacity FIFO between two threads. push() waits while full, pop() while empty; after
@@ -135,18 +139,38 @@ class Samples {
 };
 
 // SIGINT and SIGTERM set a flag that the capture stage polls; a second one ends the process at once
-// (the capture may be blocked on a camera that delivers nothing).
+// (the capture may be blocked on a camera that delivers nothing), removing the preview video's
+// temporary first. A second signal within kRepeatGraceNs (1 s) of the first is the same request
+// delivered twice: `timeout -s INT` signals the process and then its group, and a terminal's
+// Ctrl-C reaches every process of the group.
 std::atomic<int> g_stop_signal{0};
+std::atomic<std::int64_t> g_first_stop_ns{0};
+constexpr std::int64_t kRepeatGraceNs = 1'000'000'000;
+char g_temporary_video[4096];                       // whole while g_temporary_video_set is true
+std::atomic<bool> g_temporary_video_set{false};
+
+std::int64_t monotonic_ns() {  // clock_gettime is async-signal-safe; steady_clock need not be
+  timespec now {};
+  ::clock_gettime(CLOCK_MONOTONIC, &now);
+  return static_cast<std::int64_t>(now.tv_sec) * 1'000'000'000 + now.tv_nsec;
+}
 
 extern "C" void on_stop_signal(int signal) {
-  if (g_stop_signal.load() != 0) ::_exit(128 + signal);
-  g_stop_signal.store(signal);
+  if (g_stop_signal.load() == 0) {
+    g_first_stop_ns.store(monotonic_ns());
+    g_stop_signal.store(signal);
+    return;
+  }
+  if (monotonic_ns() - g_first_stop_ns.load() <= kRepeatGraceNs) return;
+  if (g_temporary_video_set.load()) ::unlink(g_temporary_video);  // async-signal-safe, as _exit
+  ::_exit(128 + signal);
 }
 
 class StopSignals {
  public:
   StopSignals() {
     g_stop_signal.store(0);
+    g_first_stop_ns.store(0);
     struct sigaction action {};
     action.sa_handler = on_stop_signal;
     sigemptyset(&action.sa_mask);
@@ -210,6 +234,80 @@ int preview_fourcc(const std::string& path) {
                    ": name it .avi (MJPG), .mkv (FFV1, lossless) or .mp4 (MPEG-4)");
 }
 
+// The preview video, written to a temporary next to its destination (with its extension, which
+// chooses the container) and renamed into place once read back whole: OpenCV's writer reports no
+// failed write, so a full disk would otherwise leave a truncated video behind a success. Reading
+// back decodes each frame once, far less work than matching it. A temporary not finished is removed.
+class PreviewVideo {
+ public:
+  PreviewVideo(const std::string& path, int fourcc, double fps, cv::Size size)
+      : path_(path), destination_(regular_output_file(path, "preview video")) {
+    temporary_ = destination_.parent_path() / ("." + destination_.stem().string() + ".tmp-" +
+                                               std::to_string(::getpid()) + destination_.extension().string());
+    const std::string name = fs::absolute(temporary_).string();
+    if (name.size() < sizeof g_temporary_video) {
+      std::memcpy(g_temporary_video, name.c_str(), name.size() + 1);
+      g_temporary_video_set.store(true);
+    }
+    writer_.open(temporary_.string(), cv::CAP_FFMPEG, fourcc, fps, size, true);
+    if (!writer_.isOpened()) {
+      remove_temporary();
+      const fs::path folder = destination_.parent_path().empty() ? fs::path(".") : destination_.parent_path();
+      if (::access(folder.c_str(), W_OK) != 0)
+        throw RuntimeError("cannot write preview video " + in_quotes(path) + ": " + std::strerror(errno));
+      throw RuntimeError("cannot write preview video " + in_quotes(path) + ": OpenCV has no encoder for it here");
+    }
+  }
+  ~PreviewVideo() {
+    writer_.release();
+    remove_temporary();
+  }
+  PreviewVideo(const PreviewVideo&) = delete;
+  PreviewVideo& operator=(const PreviewVideo&) = delete;
+
+  void write(const cv::Mat& frame) {
+    writer_.write(frame);
+    ++frames_;
+  }
+  /// Closes the video, checks that every frame written reads back, and renames it into place.
+  void finish() {
+    writer_.release();
+    const int found = frames_in(temporary_);
+    if (found != frames_)
+      throw RuntimeError("cannot write preview video " + in_quotes(path_) + ": " + std::to_string(found) + " of its " +
+                         std::to_string(frames_) + " frames read back (is the disk full?)");
+    std::error_code ec;
+    fs::rename(temporary_, destination_, ec);
+    if (ec) throw RuntimeError("cannot write preview video " + in_quotes(path_) + ": " + ec.message());
+    g_temporary_video_set.store(false);
+    temporary_.clear();
+  }
+
+ private:
+  static int frames_in(const fs::path& video) {
+    const StderrSilenced quiet;  // FFmpeg's own words on a truncated file ("overread 8")
+    cv::VideoCapture capture;
+    try {
+      if (!capture.open(video.string(), cv::CAP_FFMPEG)) return 0;
+    } catch (const cv::Exception&) {
+      return 0;
+    }
+    int frames = 0;
+    while (capture.grab()) ++frames;
+    return frames;
+  }
+  void remove_temporary() {
+    g_temporary_video_set.store(false);
+    std::error_code ec;
+    if (!temporary_.empty()) fs::remove(temporary_, ec);
+  }
+
+  std::string path_;
+  fs::path destination_, temporary_;
+  cv::VideoWriter writer_;
+  int frames_ = 0;
+};
+
 // Why a window cannot be shown; "" when it can.
 std::string display_problem() {
   const char* x11 = std::getenv("DISPLAY");
@@ -241,11 +339,7 @@ class InputNames {
   }
 
  private:
-  static std::string canonical(const std::string& path) {
-    std::error_code ec;
-    const fs::path c = fs::weakly_canonical(path, ec);
-    return ec ? fs::absolute(path, ec).lexically_normal().string() : c.string();
-  }
+  static std::string canonical(const std::string& path) { return canonical_name(path).string(); }
   std::set<std::string> names_;
 };
 
@@ -383,7 +477,7 @@ void StreamCommand::run() const {
   // No output may replace an input: every frame's name is checked now when the length is known,
   // and again as each frame is written. A per-frame file is renamed into place, which replaces a
   // name and leaves a file of other names (a hard link) as it was, so comparing canonical names
-  // suffices; the preview video is written in place and so is compared by file.
+  // suffices; the preview video is compared by file as well.
   std::vector<std::string> inputs = source->input_files();
   for (const std::string& file : calibration_flags_.files()) inputs.push_back(file);
   const InputNames input_names(inputs);
@@ -400,7 +494,10 @@ void StreamCommand::run() const {
   if (!disparity_.empty() && !depth_.empty())
     check_distinct_outputs({{"--disparity", frame_path(disparity_, first_index)},
                             {"--depth", frame_path(depth_, first_index)}});  // '%d' and '%1d' name the same files
-  if (!preview_video_.empty()) check_output_path(preview_video_, inputs, "preview video");
+  if (!preview_video_.empty()) {
+    check_output_path(preview_video_, inputs, "preview video");
+    (void)regular_output_file(preview_video_, "preview video");
+  }
 
   const StopSignals stop_signals;
   std::vector<FrameSlot> slots(kSlots);
@@ -433,14 +530,10 @@ void StreamCommand::run() const {
   const std::int16_t invalid = matcher.invalid_q4();
   for (FrameSlot& slot : slots) slot.disparity_q4.create(height, width, CV_16SC1);
 
-  cv::VideoWriter preview_video;
-  if (!preview_video_.empty()) {
-    const double fps = source->fps() > 0.0 ? source->fps() : 30.0;
-    preview_video.open(preview_video_, cv::CAP_FFMPEG, fourcc, fps, cv::Size(2 * width, height), true);
-    if (!preview_video.isOpened())
-      throw RuntimeError("cannot write preview video " + in_quotes(preview_video_) +
-                         ": OpenCV has no encoder for it here");
-  }
+  std::optional<PreviewVideo> preview_video;
+  if (!preview_video_.empty())
+    preview_video.emplace(preview_video_, fourcc, source->fps() > 0.0 ? source->fps() : 30.0,
+                          cv::Size(2 * width, height));
   const char* const kWindow = "mctstereo stream";
   if (show) cv::namedWindow(kWindow, cv::WINDOW_AUTOSIZE);
 
@@ -538,7 +631,7 @@ void StreamCommand::run() const {
   int frames_written = 0;
   Progress progress(!quiet_ && !show);
   cv::Mat preview, colour;
-  if (preview_video.isOpened() || show) preview.create(height, 2 * width, CV_8UC3);
+  if (preview_video || show) preview.create(height, 2 * width, CV_8UC3);
   cv::Mat depth;
   if (!depth_.empty()) depth.create(height, width, CV_32FC1);
   const MapView<float> depth_view{depth.ptr<float>(), width, height, width};
@@ -562,8 +655,13 @@ void StreamCommand::run() const {
       to_write.close();
     };
     started = Clock::now();
-    joiner.threads.emplace_back(capture);
-    joiner.threads.emplace_back(match);
+    try {
+      joiner.threads.emplace_back(capture);
+      joiner.threads.emplace_back(match);
+    } catch (const std::system_error& e) {
+      throw RuntimeError(std::string("cannot start the capture and matching threads: ") + e.what() +
+                         " (memory limit?)");
+    }
     try {
       while (const std::optional<FrameSlot*> slot = to_write.pop()) {
         FrameSlot& s = **slot;
@@ -590,7 +688,7 @@ void StreamCommand::run() const {
           else s.left->copyTo(left_half);
           render_preview(q4, invalid, params.min_disparity, params.max_disparity(), colour);
           colour.copyTo(right_half);
-          if (preview_video.isOpened()) preview_video.write(preview);
+          if (preview_video) preview_video->write(preview);
         }
         ++frames_written;
         const double latency = std::chrono::duration<double, std::milli>(Clock::now() - s.captured).count();
@@ -615,8 +713,15 @@ void StreamCommand::run() const {
   }
   const double seconds = std::chrono::duration<double>(Clock::now() - started).count();
   progress.finish();
-  preview_video.release();
   if (show) cv::destroyWindow(kWindow);
+  // The frames written before an error make a whole video too; the first failure is the one told.
+  if (preview_video) {
+    try {
+      preview_video->finish();
+    } catch (...) {
+      if (!error) throw;
+    }
+  }
   if (error) std::rethrow_exception(error);
 
   std::string wrote;

@@ -4,10 +4,12 @@
 
 #include <omp.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <optional>
 #include <stdexcept>
+#include <thread>
 #include <utility>
 
 #include "level_plan.hpp"
@@ -23,6 +25,15 @@ using detail::kInvalid;
 using detail::Plane;
 
 namespace {
+
+// The threads of MatcherOptions::threads = 0: OpenMP's count (OMP_NUM_THREADS, else the cores the
+// process may use), but no more than the machine's hardware threads. More only share the same
+// cores, and OMP_NUM_THREADS=100000 would start that many threads, with scratch for each, and crash.
+int default_threads() {
+  const int hardware = static_cast<int>(std::thread::hardware_concurrency());  // 0: unknown
+  const int openmp = omp_get_max_threads();
+  return std::max(1, hardware > 0 ? std::min(openmp, hardware) : openmp);
+}
 
 // The stage list of one backend as a table, so that the recipe below is written once.
 struct StageTable {
@@ -137,7 +148,7 @@ struct Matcher::Impl {
     if (o.threads < 0) throw std::invalid_argument("threads = " + std::to_string(o.threads) + " must be >= 0");
     resolve_backend();
     stages = backend == Backend::Reference ? &kReferenceStages : &kCpuStages;
-    threads = backend == Backend::Reference ? 1 : (o.threads > 0 ? o.threads : omp_get_max_threads());
+    threads = backend == Backend::Reference ? 1 : (o.threads > 0 ? o.threads : default_threads());
     need_right = p.lr_check || o.compute_right;
     want_confidence = p.sgm() || o.compute_confidence;
     if (backend == Backend::OpenCL) {
@@ -590,7 +601,7 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
     if (params.sgm()) total += detail::SgmVolume::plane_bytes_for(L.width, L.height, L.sgm_band, words);
   }
   const int w0 = plan.finest().width, h0 = plan.finest().height;
-  const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+  const int threads = options.threads > 0 ? options.threads : default_threads();
   total += threads * detail::cpu::match_scratch_bytes(w0, plan.max_range, std::max(params.shd_window, params.coarse_shd_window));
   if (params.speckle_size > 0) total += Plane<std::int32_t>::bytes_for(w0, h0) + static_cast<std::size_t>(w0) * h0 * 4;
   if (params.sgm()) {

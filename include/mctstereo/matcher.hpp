@@ -31,7 +31,8 @@ inline constexpr int kDisparityScale = 1 << kDisparityShift;
 
 /// Options of a matcher that do not change its result.
 struct MatcherOptions {
-  /// OpenMP threads of the cpu backend; 0 = the OpenMP default (all cores). Ignored by reference.
+  /// OpenMP threads of the cpu backend; 0 = the OpenMP default (OMP_NUM_THREADS, else all cores),
+  /// at most the machine's hardware threads. Ignored by reference.
   int threads = 0;
   /// Also produce the refined right-view disparity map (the LR check computes a raw one anyway).
   bool compute_right = false;

@@ -224,7 +224,7 @@ TEST_F(Render, BadFilesAndFlagsAreRefused) {
   expect_failure("render faces.ply -o view.png", 1, "point cloud 'faces.ply' has no vertex element");
   write("text.ply", "hello\n");
   expect_failure("render text.ply -o view.png", 1, "point cloud 'text.ply' is not a PLY file");
-  expect_failure("render missing.ply -o view.png", 1, "cannot open point cloud 'missing.ply'");
+  expect_failure("render missing.ply -o view.png", 1, "cannot read point cloud 'missing.ply': no such file");
   expect_failure("render cloud.ply -o cloud.ply", 2, "refusing to overwrite an input");
   expect_failure("render cloud.ply -o view.png --size 800", 2, "--size '800'");
   expect_failure("render cloud.ply -o view.png --background purple", 2, "--background 'purple'");

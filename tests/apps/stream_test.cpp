@@ -478,6 +478,88 @@ TEST_F(Stream, SigtermStopsCleanlyWithEveryWrittenFileWhole) {
     expect_frame(read_kitti(folder_ / "out" / numbered("%05d.png", f)), f % kFrames, kExact, 1.0);
 }
 
+int frames_in_video(const fs::path& path) {
+  cv::VideoCapture video(path.string(), cv::CAP_FFMPEG);
+  int frames = 0;
+  while (video.isOpened() && video.grab()) ++frames;
+  return frames;
+}
+
+TEST_F(Stream, SigintDeliveredTwiceAtOnceStopsCleanlyWithAWholePreview) {
+  // `timeout -s INT` signals the process and then its group: two SIGINTs a moment apart are one
+  // request. Before, the second ended the process at once: exit 130, no summary, an empty video.
+  // The Tsukuba pair over and over: its frames take long enough that the second signal comes while
+  // the frames in flight are still being finished.
+  fs::create_directories(folder_ / "l");
+  fs::create_directories(folder_ / "r");
+  for (int f = 0; f < 500; ++f) {
+    fs::create_symlink(mctstereo::test::kData / "tsukuba/imL.png", folder_ / "l" / numbered("%05d.png", f));
+    fs::create_symlink(mctstereo::test::kData / "tsukuba/imR.png", folder_ / "r" / numbered("%05d.png", f));
+  }
+  const std::string command = "cd " + shell_quoted(folder_.string()) + " && { " + shell_quoted(kProgram.string()) +
+                              " stream --left l --right r " + kMatching +
+                              "--disparity 'out/%05d.png' --preview-video p.avi --quiet > summary.txt 2>&1 & pid=$!; "
+                              "while [ ! -e out/00003.png ] && kill -0 $pid 2>/dev/null; do sleep 0.02; done; "
+                              "kill -INT $pid; sleep 0.02; kill -INT $pid 2>/dev/null; wait $pid; echo $?; }";
+  const Result r = run_shell(command);
+  const std::string summary = read_text(folder_ / "summary.txt");
+  EXPECT_EQ(r.output, "0\n") << summary;
+  EXPECT_NE(summary.find("stopped by SIGINT"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("preview video 'p.avi'"), std::string::npos) << summary;
+  const int frames = static_cast<int>(number_after(summary, ""));
+  EXPECT_GE(frames, 4) << summary;
+  EXPECT_EQ(frames_in_video(folder_ / "p.avi"), frames) << summary;
+}
+
+TEST_F(Stream, ASecondSigintMoreThanASecondLaterEndsAtOnceLeavingNoTemporary) {
+  // Frames slow enough (SGM over 256 disparities at 1280 x 720, one thread) that the frames in
+  // flight outlast the second signal.
+  cv::Mat left(720, 1280, CV_8UC1), right;
+  cv::RNG(7).fill(left, cv::RNG::UNIFORM, 0, 256);
+  cv::hconcat(left.colRange(8, 1280), left.colRange(0, 8), right);
+  ASSERT_TRUE(cv::imwrite((folder_ / "seq/l.png").string(), left));
+  ASSERT_TRUE(cv::imwrite((folder_ / "seq/r.png").string(), right));
+  fs::create_directories(folder_ / "l");
+  fs::create_directories(folder_ / "r");
+  for (int f = 0; f < 50; ++f) {
+    fs::create_symlink(folder_ / "seq/l.png", folder_ / "l" / numbered("%05d.png", f));
+    fs::create_symlink(folder_ / "seq/r.png", folder_ / "r" / numbered("%05d.png", f));
+  }
+  const std::string command = "cd " + shell_quoted(folder_.string()) + " && { " + shell_quoted(kProgram.string()) +
+                              " stream --left l --right r --preset sgm-full --num-disparities 256 --threads 1 "
+                              "--preview-video out/p.avi --quiet > summary.txt 2>&1 & pid=$!; "
+                              "while [ -z \"$(ls -A out)\" ] && kill -0 $pid 2>/dev/null; do sleep 0.02; done; "
+                              "kill -INT $pid; sleep 1.3; kill -INT $pid; wait $pid; echo $?; }";
+  const Result r = run_shell(command);
+  EXPECT_EQ(r.output, "130\n") << read_text(folder_ / "summary.txt");
+  EXPECT_TRUE(fs::is_empty(folder_ / "out")) << "the temporary of the preview video is removed";
+}
+
+TEST_F(Stream, PreviewVideoOnAFullDiskIsAnErrorAndLeavesNoVideo) {
+  // A file size limit stands for the full disk (SIGXFSZ ignored: the write fails with EFBIG, as a
+  // full disk fails with ENOSPC). Before, a truncated video and "wrote preview video", exit 0.
+  write_sequence();
+  const std::set<std::string> before = folder_listing(folder_);
+  const Result r = run_shell("cd " + shell_quoted(folder_.string()) + " && trap '' XFSZ && ulimit -f 64 && " +
+                             shell_quoted(kProgram.string()) + " stream " + kSequence +
+                             "--preview-video p.avi --quiet 2>&1");
+  EXPECT_EQ(r.status, kRuntime) << r.output;
+  EXPECT_EQ(r.output.rfind("mctstereo: error: cannot write preview video 'p.avi': ", 0), 0u) << r.output;
+  EXPECT_NE(r.output.find(" frames read back (is the disk full?)"), std::string::npos) << r.output;
+  EXPECT_EQ(folder_listing(folder_), before) << "no video, no temporary";
+}
+
+TEST_F(Stream, OutputsThatCannotHoldAVideoOrNameOneFileTwiceAreRefused) {
+  write_sequence(2);
+  fs::create_symlink("/dev/null", folder_ / "null.avi");
+  expect_failure(kSequence + "--preview-video null.avi", kRuntime,
+                 "cannot write preview video 'null.avi': it is a device or a FIFO, and a preview video must be a "
+                 "regular file");
+  expect_failure(kSequence + "--disparity 'out/%05d.pfm' --depth './out/%05d.pfm'", kUsage,
+                 "--disparity and --depth are the same file");
+  EXPECT_TRUE(fs::is_empty(folder_ / "out"));
+}
+
 // A camera that stops delivering frames mid-stream is an error naming it and the frames it gave,
 // not the end of input: two captures of short lossless videos stand in for the cameras.
 TEST(StreamSource, CameraThatStopsIsAnError) {
