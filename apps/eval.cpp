@@ -212,9 +212,8 @@ MapView<T> mutable_map_view(cv::Mat& m) {
   return {m.ptr<T>(0), m.cols, m.rows, static_cast<std::ptrdiff_t>(m.step[0] / sizeof(T))};
 }
 
-// A PFM file as Middlebury 2014 stores ground truth: "Pf" (one channel), width and height, a
-// scale whose sign is the byte order (negative: little-endian), one whitespace byte, then 32-bit
-// floats with the bottom row first. Returned top row first, CV_32F.
+// A one-channel PFM file (mctstereo::decode_pfm), as Middlebury 2014 stores ground truth: top row
+// first, CV_32F.
 cv::Mat read_pfm(const std::string& path, const std::string& role) {
   const std::string what = role + " " + in_quotes(path);
   std::error_code ec;
@@ -223,61 +222,13 @@ cv::Mat read_pfm(const std::string& path, const std::string& role) {
   if (fs::is_directory(status)) throw RuntimeError("cannot read " + what + ": it is a folder, not a PFM file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw RuntimeError("cannot read " + what + ": " + std::strerror(errno));
-  const std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-
-  std::size_t at = 0;
-  const auto skip_space = [&] {
-    while (at < bytes.size() && std::isspace(bytes[at])) ++at;
-  };
-  const auto token = [&] {
-    skip_space();
-    std::string t;
-    while (at < bytes.size() && !std::isspace(bytes[at]) && t.size() < 32) t += static_cast<char>(bytes[at++]);
-    return t;
-  };
-  const std::string magic = token();
-  if (magic == "PF")
-    throw RuntimeError(what + " is a colour PFM (PF): ground truth must have one channel (Pf)");
-  if (magic != "Pf") throw RuntimeError(what + " is not a PFM file: it must start with 'Pf'");
-  const std::string width_text = token(), height_text = token(), scale_text = token();
-  long width = 0, height = 0;
-  double scale = 0.0;
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   try {
-    std::size_t used_w = 0, used_h = 0, used_s = 0;
-    width = std::stol(width_text, &used_w);
-    height = std::stol(height_text, &used_h);
-    scale = std::stod(scale_text, &used_s);
-    if (used_w != width_text.size() || used_h != height_text.size() || used_s != scale_text.size()) width = 0;
-  } catch (const std::exception&) {
-    width = 0;
+    const FloatMap map = decode_pfm(bytes, what);
+    return cv::Mat(map.height, map.width, CV_32F, const_cast<float*>(map.values.data())).clone();
+  } catch (const std::runtime_error& e) {
+    throw RuntimeError(e.what());
   }
-  if (width < 1 || height < 1 || width > 65536 || height > 65536 || !std::isfinite(scale) || scale == 0.0)
-    throw RuntimeError(what + ": bad PFM header '" + magic + " " + width_text + " " + height_text + " " + scale_text +
-                       "' (expected 'Pf WIDTH HEIGHT SCALE', a non-zero scale whose sign is the byte order)");
-  // Exactly one whitespace byte ends the header: the samples may begin with a byte that looks like one.
-  if (at >= bytes.size() || !std::isspace(bytes[at]))
-    throw RuntimeError(what + ": bad PFM header: no line break after the scale");
-  ++at;
-  const std::size_t expected = static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 4;
-  if (bytes.size() - at < expected)
-    throw RuntimeError(what + ": truncated PFM: " + std::to_string(width) + "x" + std::to_string(height) + " needs " +
-                       std::to_string(expected) + " bytes of samples, the file has " +
-                       std::to_string(bytes.size() - at));
-  const bool little_endian = scale < 0;
-  cv::Mat values(static_cast<int>(height), static_cast<int>(width), CV_32F);
-  for (int y = 0; y < values.rows; ++y) {
-    const unsigned char* src = bytes.data() + at + static_cast<std::size_t>(values.rows - 1 - y) * width * 4;
-    float* dst = values.ptr<float>(y);
-    for (int x = 0; x < values.cols; ++x, src += 4) {
-      const std::uint32_t bits =
-          little_endian ? std::uint32_t{src[0]} | std::uint32_t{src[1]} << 8 | std::uint32_t{src[2]} << 16 |
-                              std::uint32_t{src[3]} << 24
-                        : std::uint32_t{src[3]} | std::uint32_t{src[2]} << 8 | std::uint32_t{src[1]} << 16 |
-                              std::uint32_t{src[0]} << 24;
-      std::memcpy(&dst[x], &bits, 4);
-    }
-  }
-  return values;
 }
 
 // Ground truth in pixels, NaN where unknown: a PFM (value / gt_scale, gt_scale 1 unless given;

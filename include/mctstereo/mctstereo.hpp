@@ -5,4 +5,5 @@
 #include "mctstereo/image.hpp"
 #include "mctstereo/matcher.hpp"
 #include "mctstereo/params.hpp"
+#include "mctstereo/pfm.hpp"
 #include "mctstereo/version.hpp"
