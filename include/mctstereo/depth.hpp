@@ -6,9 +6,11 @@
 // baseline. Pixel centres have integer coordinates, as in OpenCV and Middlebury's calib.txt.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <iosfwd>
 #include <limits>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -35,6 +37,42 @@ struct StereoGeometry {
   /// Depth of a disparity, in `units`: focal * baseline / (d + doffs); +inf when d + doffs <= 0.
   double depth(double disparity) const;
 };
+
+/// A 3 x 4 projection matrix, row-major: OpenCV's P1 and P2 of a rectified pair (stereoRectify).
+using ProjectionMatrix = std::array<double, 12>;
+/// OpenCV's 4 x 4 reprojection matrix Q (stereoRectify, reprojectImageTo3D), row-major.
+using ReprojectionMatrix = std::array<double, 16>;
+
+/// A matrix that gives no geometry of a left-right rectified pair: which one ("P1", "P2" or "Q")
+/// and what is wrong with it ("has a focal length P1(0,0) = 0 <= 0"); what() is both.
+class GeometryMatrixError : public std::invalid_argument {
+ public:
+  GeometryMatrixError(const std::string& matrix, const std::string& problem)
+      : std::invalid_argument(matrix + " " + problem), matrix_(matrix), problem_(problem) {}
+  const std::string& matrix() const { return matrix_; }
+  const std::string& problem() const { return problem_; }
+
+ private:
+  std::string matrix_, problem_;
+};
+
+/// The geometry of a horizontal rectified pair from its projections
+/// P1 = [f 0 cx 0; 0 f cy 0; 0 0 1 0], P2 = [f 0 cx2 -f B; 0 f cy 0; 0 0 1 0]:
+/// focal = P1(0,0), cx = P1(0,2), cy = P1(1,2), baseline = -P2(0,3) / P2(0,0) in the unit of the
+/// calibration's translation (`units`), doffs = P2(0,2) - P1(0,2). GeometryMatrixError for a focal
+/// length <= 0, a vertical pair (P2(1,3) != 0) or a baseline <= 0 (swapped cameras).
+StereoGeometry geometry_from_projections(const ProjectionMatrix& P1, const ProjectionMatrix& P2,
+                                         const std::string& units = "m");
+/// The same from Q = [1 0 0 -cx; 0 1 0 -cy; 0 0 0 f; 0 0 1/B doffs/B]: GeometryMatrixError for
+/// Q(2,3) <= 0 or Q(3,2) <= 0.
+StereoGeometry geometry_from_reprojection(const ReprojectionMatrix& Q, const std::string& units = "m");
+/// P1 of a geometry: [f 0 cx 0; 0 f cy 0; 0 0 1 0].
+ProjectionMatrix left_projection(const StereoGeometry& geometry);
+/// P2 of a geometry: [f 0 cx + doffs -f B; 0 f cy 0; 0 0 1 0].
+ProjectionMatrix right_projection(const StereoGeometry& geometry);
+/// Q of a geometry: [1 0 0 -cx; 0 1 0 -cy; 0 0 0 f; 0 0 1/B doffs/B]; reprojectImageTo3D of a
+/// disparity d at (x, y) gives the point depth_from_disparity and point_cloud_from_disparity give.
+ReprojectionMatrix reprojection_matrix(const StereoGeometry& geometry);
 
 /// What a depth map holds where no depth is known: NaN (as the float disparity map).
 inline constexpr float kNoDepth = std::numeric_limits<float>::quiet_NaN();
