@@ -97,10 +97,10 @@ void relative_depth_from_disparity(MapView<const std::int16_t> q4, std::int16_t 
 struct PointCloud {
   std::vector<float> xyz;           ///< X, Y, Z of each point, in `units`
   std::vector<std::uint8_t> rgb;    ///< R, G, B of each point; empty for a cloud without colours
-  std::vector<std::int32_t> pixel;  ///< y * width + x of the left pixel each point comes from
-  std::string units = "m";          ///< the geometry's units (point_cloud_from_disparity sets it)
+  std::vector<std::int32_t> pixel;  ///< y * width + x of the left pixel each point comes from; empty when read from a file
+  std::string units = "m";          ///< the geometry's units (point_cloud_from_disparity sets it; "" from read_ply)
 
-  std::size_t size() const { return pixel.size(); }
+  std::size_t size() const { return xyz.size() / 3; }
   bool has_colours() const { return !rgb.empty(); }
   /// Keeps the storage: a cloud reused frame after frame allocates only while it grows.
   void clear();
@@ -119,6 +119,14 @@ void point_cloud_from_disparity(MapView<const std::int16_t> q4, std::int16_t inv
 /// cloud has colours, uchar red green blue; each of `comments` becomes a "comment" line (newlines
 /// are replaced by spaces). Throws std::runtime_error when the stream fails.
 void write_ply(std::ostream& out, const PointCloud& cloud, const std::vector<std::string>& comments = {});
+
+/// Reads a PLY point cloud, ascii or binary_little_endian: the vertex element's x y z (any numeric
+/// type; values beyond float's range become NaN) and red green blue when it has all three (integers
+/// as 0..255, clamped; floats as 0..1); other properties and elements are read past. The cloud has
+/// no `pixel` entries and empty `units`. std::runtime_error naming `name` ("point cloud 'a.ply'",
+/// say) and what is wrong: not a PLY, another format, a malformed header, no vertices or no x, y or
+/// z, a value that is not a number, or a truncated body.
+PointCloud read_ply(std::istream& in, const std::string& name = "the PLY data");
 
 /// Writes `cloud` as Wavefront OBJ, one "v x y z" line per point ("v x y z r g b" with colours in
 /// [0, 1] when the cloud has them), `comments` as "#" lines. Throws std::runtime_error on failure.
