@@ -42,6 +42,9 @@ from typing import List, Optional
 
 import numpy as np
 
+from . import Matcher, StereoParams, depth_from_disparity, encode_pfm, preset, read_pfm
+from .calibration import read_geometry
+
 IMAGE_EXTENSIONS = (".png", ".ppm", ".pgm", ".jpg", ".jpeg")
 SUMMARY_FIELDS = ["pair", "size", "ms", "valid_percent", "status", "error", "left", "right", "calibration"]
 
@@ -200,29 +203,7 @@ def output_paths(out, name, preview, calibrated):
     return {role: str(p) for role, p in paths.items()}
 
 
-# ---- Files as `mctstereo match` writes them.
-
-
-def encode_pfm(values):
-    """A one-channel PFM of a float map, as the program writes it: header "Pf", "W H", "-1.0" (little-endian),
-    rows bottom to top, every value that is not finite (NaN, -inf) written as +INF."""
-    values = np.asarray(values, dtype=np.float32)
-    h, w = values.shape
-    body = np.where(np.isfinite(values), values, np.float32(np.inf)).astype("<f4")[::-1]
-    return f"Pf\n{w} {h}\n-1.0\n".encode() + np.ascontiguousarray(body).tobytes()
-
-
-def read_pfm(path):
-    """A one-channel PFM: float32 H x W, top row first (+INF kept as it is)."""
-    data = pathlib.Path(path).read_bytes()
-    parts = data.split(b"\n", 3)
-    if len(parts) < 4 or parts[0] != b"Pf":
-        raise ValueError(f"{path}: not a one-channel PFM file")
-    w, h = map(int, parts[1].split())
-    dtype = "<f4" if float(parts[2]) < 0 else ">f4"
-    if len(parts[3]) != w * h * 4:
-        raise ValueError(f"{path}: truncated PFM ({len(parts[3])} bytes of samples, {w}x{h} needs {w * h * 4})")
-    return np.frombuffer(parts[3], dtype).reshape(h, w)[::-1].astype(np.float32)
+# ---- Files as `mctstereo match` writes them (PFM: the library's encode_pfm and read_pfm).
 
 
 def disparity_from_q4(q4, invalid_q4):
@@ -302,7 +283,7 @@ def _output_complete(path):
     if path.endswith(".pfm"):
         try:
             read_pfm(path)
-        except (ValueError, OSError):
+        except (RuntimeError, OSError):
             return False
     return True
 
@@ -313,8 +294,6 @@ _matchers = threading.local()  # per worker thread: the matcher of the last size
 
 
 def _matcher(width, height, settings):
-    from . import Matcher, StereoParams
-
     key = (width, height, tuple(sorted(settings.params.items())), settings.backend, settings.device, settings.threads)
     if getattr(_matchers, "key", None) != key:
         _matchers.matcher = None  # frees the old one's buffers before the new one allocates
@@ -353,8 +332,6 @@ def match_pair(pair, settings):
         result.width, result.height = w, h
         geometry = None
         if pair.calibration:
-            from .calibration import read_geometry
-
             geometry = read_geometry(pair.calibration, w, h)
         matcher = _matcher(w, h, settings)
         start = time.perf_counter()
@@ -371,8 +348,6 @@ def match_pair(pair, settings):
 
 
 def _write_outputs(paths, matcher, q4, invalid, geometry):
-    from . import depth_from_disparity
-
     # The disparity last: its presence marks the pair done for a rerun.
     if "preview" in paths:
         p = matcher.params
@@ -457,8 +432,6 @@ def _field_value(text):
 
 def parameters_from(args):
     """The StereoParams of the command line (preset, then the range flags, then --set), validated."""
-    from . import preset
-
     try:
         params = preset(args.preset)
         if args.min_disparity is not None:

@@ -7,7 +7,7 @@ is for images that must be rectified first, which only the program does: ValueEr
 
 import re
 
-from ._mctstereo import StereoGeometry
+from ._mctstereo import StereoGeometry, geometry_from_projections, geometry_from_reprojection
 
 
 def _middlebury_values(text):
@@ -82,10 +82,9 @@ def _read_opencv(path, width, height):
     units = units_node.string() if not units_node.empty() else "m"
     p1, p2, q = matrix("P1"), matrix("P2"), matrix("Q")
     if p1 is not None and p2 is not None:
-        return StereoGeometry(p1[0, 0], -p2[0, 3] / p2[0, 0], p1[0, 2], p1[1, 2], p2[0, 2] - p1[0, 2], units)
+        return geometry_from_projections(p1, p2, units)
     if q is not None:
-        baseline = 1.0 / q[3, 2]
-        return StereoGeometry(q[2, 3], baseline, -q[0, 3], -q[1, 3], q[3, 3] * baseline, units)
+        return geometry_from_reprojection(q, units)
     raise ValueError("keys 'P1' and 'P2' (or 'Q') are missing")
 
 
