@@ -37,8 +37,8 @@ import pathlib
 import sys
 import threading
 import time
-from dataclasses import dataclass, field
-from typing import List, Optional
+from dataclasses import dataclass
+from typing import Optional
 
 import numpy as np
 
@@ -78,7 +78,6 @@ class PairResult:
     ms: Optional[float] = None
     valid_percent: Optional[float] = None
     error: str = ""
-    outputs: List[str] = field(default_factory=list)
 
     def row(self):
         return {
@@ -134,23 +133,24 @@ def pairs_from_csv(path):
 
 
 def _images(folder):
-    return sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_EXTENSIONS)
+    """The images of a folder by stem (name without extension)."""
+    if not folder.is_dir():
+        return {}
+    return {p.stem: str(p) for p in sorted(folder.iterdir()) if p.is_file() and p.suffix.lower() in IMAGE_EXTENSIONS}
 
 
-def _partner(folder, stem):
-    """The image of that stem in folder, with any of our extensions; '' when none."""
-    for p in _images(folder) if folder.is_dir() else []:
-        if p.stem == stem:
-            return str(p)
-    return ""
+def _right_stem(stem, base):
+    """NAME_right of NAME_left, in the case of its word: NAME-RIGHT of NAME-LEFT."""
+    separator, word = stem[len(base)], stem[len(base) + 1:]
+    return base + separator + ("RIGHT" if word.isupper() else "Right" if word[0].isupper() else "right")
 
 
 def _scene_pair(scene):
+    images = _images(scene)
     for left_stem, right_stem in (("im0", "im1"), ("imL", "imR")):
-        left = _partner(scene, left_stem)
-        if left:
+        if left_stem in images:
             calib = scene / "calib.txt"
-            return Pair(scene.name, left, _partner(scene, right_stem), str(calib) if calib.is_file() else "")
+            return Pair(scene.name, images[left_stem], images.get(right_stem, ""), str(calib) if calib.is_file() else "")
     return None
 
 
@@ -158,13 +158,14 @@ def pairs_from_folder(folder):
     folder = pathlib.Path(folder).resolve()
     pairs = []
     if (folder / "left").is_dir() and (folder / "right").is_dir():
-        pairs = [Pair(p.stem, str(p), _partner(folder / "right", p.stem)) for p in _images(folder / "left")]
+        rights = _images(folder / "right")
+        pairs = [Pair(stem, left, rights.get(stem, "")) for stem, left in _images(folder / "left").items()]
     else:
-        for p in _images(folder):
-            base = _strip_suffix(p.stem)
-            if base != p.stem:
-                right_stem = p.stem[: len(base)] + p.stem[len(base):].replace("left", "right").replace("LEFT", "RIGHT")
-                pairs.append(Pair(base, str(p), _partner(folder, right_stem)))
+        images = _images(folder)
+        for stem, left in images.items():
+            base = _strip_suffix(stem)
+            if base != stem:
+                pairs.append(Pair(base, left, images.get(_right_stem(stem, base), "")))
         for scene in sorted(d for d in folder.iterdir() if d.is_dir()):
             pair = _scene_pair(scene)
             if pair:
@@ -341,7 +342,6 @@ def match_pair(pair, settings):
         result.valid_percent = 100.0 * float((q4 != invalid).mean())
         _write_outputs(paths, matcher, q4, invalid, geometry)
         result.status = "ok"
-        result.outputs = sorted(paths.values())
     except Exception as e:  # noqa: BLE001 - any failure of one pair is that pair's row
         result.status, result.error = "failed", str(e) or type(e).__name__
     return result

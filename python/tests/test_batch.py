@@ -165,6 +165,15 @@ def test_pairs_from_a_csv(tmp_path):
         batch.read_pairs(tmp_path / "bad.csv")
 
 
+def test_pairs_from_a_folder_of_left_and_right_files(tmp_path):
+    for name in ("a_left.png", "a_right.png", "B-LEFT.ppm", "B-RIGHT.jpg", "c_left.png", "d_right.png", "notes.txt"):
+        (tmp_path / name).write_bytes(b"")
+    pairs = {p.name: p for p in batch.read_pairs(tmp_path)}
+    assert set(pairs) == {"a", "B", "c"}
+    assert pairs["B"].right.endswith("B-RIGHT.jpg")
+    assert pairs["c"].right == ""  # matched as a failure: "no right image"
+
+
 def test_pairs_from_left_and_right_subfolders(tmp_path):
     for side in ("left", "right"):
         (tmp_path / side).mkdir()
