@@ -481,39 +481,55 @@ def argument_parser():
     return parser
 
 
-def main(argv=None):
-    args = argument_parser().parse_args(argv)
-    try:
-        if args.workers < 1:
-            raise UsageError("--workers must be at least 1")
-        params = parameters_from(args)
-        pairs = read_pairs(args.pairs)
-        out = pathlib.Path(args.out).resolve()
-        out.mkdir(parents=True, exist_ok=True)
-        inputs = {os.path.realpath(p) for pair in pairs for p in (pair.left, pair.right, pair.calibration) if p}
-        for pair in pairs:
-            for path in output_paths(out, pair.name, args.preview, bool(pair.calibration)).values():
-                if os.path.realpath(path) in inputs:
-                    raise UsageError(f"output '{path}' is an input: refusing to overwrite it")
-    except UsageError as e:
-        print(f"mctstereo.batch: {e}", file=sys.stderr)
-        return 2
+def prepare(args):
+    """The settings and pairs of the command line, the output folder made; UsageError for a mistake."""
+    if args.workers < 1:
+        raise UsageError("--workers must be at least 1")
+    params = parameters_from(args)
+    pairs = read_pairs(args.pairs)
+    out = pathlib.Path(args.out).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    inputs = {os.path.realpath(p) for pair in pairs for p in (pair.left, pair.right, pair.calibration) if p}
+    for pair in pairs:
+        for path in output_paths(out, pair.name, args.preview, bool(pair.calibration)).values():
+            if os.path.realpath(path) in inputs:
+                raise UsageError(f"output '{path}' is an input: refusing to overwrite it")
     threads = args.threads
-    if threads is None:
+    if threads is None:  # a local cluster shares this machine's cores among its workers
         threads = 0 if args.scheduler else max(1, (os.cpu_count() or 1) // args.workers)
-    settings = MatchSettings(params.to_dict(), str(out), args.backend, args.device, threads, args.preview)
+    return MatchSettings(params.to_dict(), str(out), args.backend, args.device, threads, args.preview), pairs
+
+
+def run_on_cluster(args, pairs, settings):
+    """The results of the pairs and the seconds they took, on the user's cluster or a local one."""
     client, cluster = start_client(args.scheduler, args.workers, args.dashboard)
     if args.dashboard and cluster is not None:
         print(f"mctstereo.batch: dashboard {client.dashboard_link}", file=sys.stderr)
     try:
         start = time.perf_counter()
         results = run_batch(client, pairs, settings)
-        seconds = time.perf_counter() - start
+        return results, time.perf_counter() - start
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
-    summary = pathlib.Path(args.summary) if args.summary else out / "summary.csv"
+
+
+def main(argv=None):
+    args = argument_parser().parse_args(argv)
+    try:
+        settings, pairs = prepare(args)
+    except UsageError as e:
+        print(f"mctstereo.batch: {e}", file=sys.stderr)
+        return 2
+    try:
+        results, seconds = run_on_cluster(args, pairs, settings)
+    except (OSError, TimeoutError) as e:
+        where = f"the scheduler {args.scheduler}" if args.scheduler else "the local cluster"
+        print(f"mctstereo.batch: lost or could not reach {where}: {e}", file=sys.stderr)
+        return 2
+    summary = pathlib.Path(args.summary) if args.summary else pathlib.Path(settings.out) / "summary.csv"
+    summary.parent.mkdir(parents=True, exist_ok=True)
     write_summary(results, summary)
     counts = {s: sum(r.status == s for r in results) for s in ("ok", "skipped", "failed")}
     print(f"mctstereo.batch: {len(results)} pairs in {seconds:.1f} s ({len(results) / seconds:.2f} pairs/s): "
