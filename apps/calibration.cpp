@@ -267,7 +267,8 @@ class StorageReader {
 template <std::size_t N>
 std::array<double, N> matrix_values(const cv::Mat& m) {
   std::array<double, N> values{};
-  for (std::size_t i = 0; i < N; ++i) values[i] = m.at<double>(static_cast<int>(i) / m.cols, static_cast<int>(i) % m.cols);
+  for (std::size_t i = 0; i < N; ++i)
+    values[i] = m.at<double>(static_cast<int>(i) / m.cols, static_cast<int>(i) % m.cols);
   return values;
 }
 

@@ -326,7 +326,8 @@ PointCloud read_ply(std::istream& in, const std::string& name) {
   PointCloud cloud;
   cloud.units.clear();  // a PLY file does not say
   // No more than the file can hold: a huge count in a small file is truncated, not out of memory.
-  const std::size_t plausible = std::min<std::size_t>(static_cast<std::size_t>(vertex->count), bytes.size() - header.body);
+  const std::size_t plausible =
+      std::min<std::size_t>(static_cast<std::size_t>(vertex->count), bytes.size() - header.body);
   cloud.xyz.reserve(3 * plausible);
   if (layout.colours) cloud.rgb.reserve(3 * plausible);
   for (std::int64_t row = 0; row < vertex->count; ++row) {

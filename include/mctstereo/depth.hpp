@@ -97,7 +97,7 @@ void relative_depth_from_disparity(MapView<const std::int16_t> q4, std::int16_t 
 struct PointCloud {
   std::vector<float> xyz;           ///< X, Y, Z of each point, in `units`
   std::vector<std::uint8_t> rgb;    ///< R, G, B of each point; empty for a cloud without colours
-  std::vector<std::int32_t> pixel;  ///< y * width + x of the left pixel each point comes from; empty when read from a file
+  std::vector<std::int32_t> pixel;  ///< y * width + x of the left pixel of each point (empty: read from a file)
   std::string units = "m";          ///< the geometry's units (point_cloud_from_disparity sets it; "" from read_ply)
 
   std::size_t size() const { return xyz.size() / 3; }

@@ -150,7 +150,8 @@ def _scene_pair(scene):
     for left_stem, right_stem in (("im0", "im1"), ("imL", "imR")):
         if left_stem in images:
             calib = scene / "calib.txt"
-            return Pair(scene.name, images[left_stem], images.get(right_stem, ""), str(calib) if calib.is_file() else "")
+            calibration = str(calib) if calib.is_file() else ""
+            return Pair(scene.name, images[left_stem], images.get(right_stem, ""), calibration)
     return None
 
 
