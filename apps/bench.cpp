@@ -71,6 +71,7 @@
 #include <optional>
 #include <set>
 #include <sstream>
+#include <tuple>
 
 #include "cpu_load.hpp"
 #include "errors.hpp"
@@ -473,6 +474,444 @@ Json stage_json(const std::vector<StageTime>& stages) {
   return j;
 }
 
+
+// --- The units of a run -------------------------------------------------------------------------
+
+// What a run times and how, from the flags and the machine.
+struct RunSetup {
+  std::vector<FrameSize> sizes;
+  std::vector<int> disparity_counts, thread_settings;
+  std::vector<Backend> backends;  // auto resolved
+  std::vector<std::string> presets;
+  std::string device, opencl_device;  // --device; the OpenCL device's name when the opencl backend runs
+  std::string left_path, right_path;
+  Settings settings;
+  std::string simd_target;  // of the cpu backend; "scalar" when only the reference backend runs
+  int warmup = 0, frames = 0, load = 0, first_opencv_threads = 0;
+  double min_time_s = 0.0;
+
+  bool has(Backend b) const { return std::find(backends.begin(), backends.end(), b) != backends.end(); }
+};
+
+// Resolves --backend auto to what it picks (once in the list) and opens the OpenCL device before
+// any timing, so that a missing one costs nothing. Returns the OpenCL device's name, "" when none.
+std::string resolve_backends(std::vector<Backend>& backends, const std::string& device) {
+  std::string opencl_device;
+  for (std::size_t i = 0; i < backends.size(); ++i) {
+    if (backends[i] != Backend::Auto && backends[i] != Backend::OpenCL) continue;
+    const Matcher probe = open_backend(backends[i], device);
+    if (backends[i] == Backend::Auto) {
+      if (!probe.notice().empty()) std::cerr << "mctstereo: note: --backend auto: " << probe.notice() << "\n";
+      if (std::find(backends.begin(), backends.end(), probe.backend()) != backends.end()) {
+        backends.erase(backends.begin() + static_cast<std::ptrdiff_t>(i--));
+        continue;
+      }
+      backends[i] = probe.backend();
+    }
+    if (probe.backend() == Backend::OpenCL) opencl_device = probe.device_name();
+  }
+  return opencl_device;
+}
+
+// The lines above the tables: the machine, SIMD and threads, the OpenCL device, versions, waiting, load, date.
+void print_header(const RunSetup& setup) {
+  const auto join = [](const auto& items, auto text) {
+    std::string s;
+    for (const auto& item : items) {
+      if (!s.empty()) s += ',';
+      s += text(item);
+    }
+    return s;
+  };
+  const std::string backends_text = join(setup.backends, [](Backend b) { return std::string(to_string(b)); });
+  const std::string threads_text = join(setup.thread_settings, [](int t) { return std::to_string(t); });
+  std::printf("CPU       %s, %ld cores online\n", setup.settings.cpu.c_str(), setup.settings.cores_online);
+  std::printf("SIMD      %s; OpenMP %d threads by default; timed with --threads %s, --backend %s\n",
+              setup.simd_target.c_str(), setup.settings.openmp_max_threads, threads_text.c_str(), backends_text.c_str());
+  if (!setup.opencl_device.empty()) std::printf("OpenCL    %s\n", setup.opencl_device.c_str());
+  std::printf("versions  mctstereo %s, OpenCV %s, %s, build %s\n", MCTSTEREO_VERSION, CV_VERSION,
+              compiler_version().c_str(), build_type().c_str());
+  const char* spin_env = std::getenv("GOMP_SPINCOUNT");
+  const char* policy_env = std::getenv("OMP_WAIT_POLICY");
+  std::printf("waiting   OpenMP threads wait with GOMP_SPINCOUNT=%s, OMP_WAIT_POLICY=%s\n", spin_env ? spin_env : "(unset)",
+              policy_env ? policy_env : "(unset)");
+  if (setup.load > 0) std::printf("load      %d busy threads in another process during the timing\n", setup.load);
+  std::printf("date      %s\n\n", utc_date().c_str());
+}
+
+// Progress steps: per (size, range) the peers and cpu presets per thread setting, the reference
+// and opencl presets once, and one memory probe per preset.
+int progress_steps(const RunSetup& setup) {
+  const int presets = static_cast<int>(setup.presets.size());
+  return static_cast<int>(setup.sizes.size() * setup.disparity_counts.size()) *
+         (static_cast<int>(setup.thread_settings.size()) * (2 + (setup.has(Backend::Cpu) ? presets : 0)) +
+          (setup.has(Backend::Reference) ? presets : 0) + (setup.opencl_device.empty() ? 0 : presets) + presets);
+}
+
+// What cannot run (a preset invalid at a size, OpenCV too narrow a frame): noted once per
+// (method, size, range), though it comes up for every thread setting and backend.
+class SkipNotes {
+ public:
+  explicit SkipNotes(Progress& progress) : progress_(progress) {}
+  void note(const std::string& method, const FrameSize& size, int num_disparities, const std::string& reason) {
+    if (!notes_.insert(method + " " + size.text() + " " + std::to_string(num_disparities)).second) return;
+    progress_.clear();
+    std::cerr << "mctstereo: note: skipping " << method << " at " << size.text() << " with " << num_disparities
+              << " disparities: " << reason << "\n";
+    Json s = Json::object();
+    s.set("method", method);
+    s.set("size", size.text());
+    s.set("num_disparities", num_disparities);
+    s.set("reason", reason);
+    skipped_.push_back(std::move(s));
+  }
+  const Json& skipped() const { return skipped_; }
+
+ private:
+  Progress& progress_;
+  Json skipped_ = Json::array();
+  std::set<std::string> notes_;
+};
+
+// The first problem validate() finds with a preset at a size, "" when it suits.
+std::string preset_problem(const std::string& name, const FrameSize& size, int num_disparities) {
+  const std::string problems = bench_params(name, num_disparities).validate(size.width, size.height);
+  return problems.substr(0, problems.find('\n'));
+}
+
+// The timing table as it fills: its rows, the progress line and the notes of what was skipped.
+struct Timing {
+  const RunSetup& setup;
+  Progress& progress;
+  SkipNotes& skips;
+  std::vector<Measurement> measurements;
+};
+
+// One group of the table: a size, a range and a --threads value. StereoBM, timed first, is the
+// yardstick of the ratios.
+struct Group {
+  FrameSize size;
+  int num_disparities = 0, threads_requested = 0;
+  std::string label;  // "640x480, 64 disparities, --threads 2: "
+  double stereobm_fps = std::numeric_limits<double>::quiet_NaN();
+};
+
+void print_row(const Measurement& m) {
+  const std::string ratio = std::isnan(m.ratio_to_stereobm) ? "-" : fixed(m.ratio_to_stereobm, 3);
+  std::printf("%-10s %5d %4d  %-18s %-9s %10.3f %10.3f %9.1f %7s %7d\n", m.size.text().c_str(), m.num_disparities,
+              m.threads, m.method.c_str(), m.backend.empty() ? "-" : m.backend.c_str(), m.median_ms, m.p95_ms,
+              m.fps(), ratio.c_str(), m.frames);
+  std::fflush(stdout);
+}
+
+// Completes a measurement with the frame times `ms` of its group, prints and keeps it.
+void record(Timing& t, Group& g, Measurement m, const std::vector<double>& ms) {
+  m.size = g.size;
+  m.threads_requested = g.threads_requested;
+  m.frames = static_cast<int>(ms.size());
+  m.median_ms = median(ms);
+  m.p95_ms = percentile(ms, 95.0);
+  if (m.method == "opencv-stereobm") g.stereobm_fps = m.fps();
+  m.ratio_to_stereobm = m.fps() / g.stereobm_fps;  // NaN without StereoBM
+  t.progress.clear();
+  print_row(m);
+  t.measurements.push_back(std::move(m));
+}
+
+void time_peers(Timing& t, Group& g, const std::vector<Peer>& peers, const cv::Mat& left, const cv::Mat& right) {
+  const FramePlan plan = frame_plan(g.size, false, t.setup.warmup, t.setup.frames);
+  for (const Peer& peer : peers) {
+    t.progress.step(g.label + peer.name);
+    const int opencv_disparities = peer.matcher->getNumDisparities();
+    if (const std::string reason = peer_unsupported_reason(peer, g.size.width); !reason.empty()) {
+      t.skips.note(peer.name, g.size, opencv_disparities, reason);
+      continue;
+    }
+    try {
+      cv::Mat disparity;
+      Measurement m;
+      m.method = peer.name;
+      m.kind = "opencv";
+      m.num_disparities = opencv_disparities;
+      m.threads = cv::getNumThreads();
+      m.warmup = plan.warmup;
+      record(t, g, m, time_frames([&] { peer.matcher->compute(left, right, disparity); }, {}, plan, t.setup.min_time_s));
+    } catch (const cv::Exception& e) {
+      t.skips.note(peer.name, g.size, opencv_disparities, "OpenCV: " + e.err);
+    }
+  }
+}
+
+// Times one preset on one backend, with the medians of its stages.
+void time_preset(Timing& t, Group& g, const std::string& name, Backend backend, ImageView left, ImageView right) {
+  const FramePlan plan = frame_plan(g.size, backend == Backend::Reference, t.setup.warmup, t.setup.frames);
+  MatcherOptions options;
+  options.threads = g.threads_requested;
+  options.device = t.setup.device;
+  Matcher matcher = open_backend(backend, t.setup.device, g.size, bench_params(name, g.num_disparities), options);
+  std::vector<std::vector<double>> stage_ms;
+  const auto collect_stages = [&] {
+    const std::vector<StageTime>& times = matcher.timings();
+    stage_ms.resize(times.size());
+    for (std::size_t s = 0; s < times.size(); ++s) stage_ms[s].push_back(times[s].ms);
+  };
+  Measurement m;
+  m.method = name;
+  m.kind = "mctstereo";
+  m.backend = to_string(matcher.backend());
+  m.num_disparities = g.num_disparities;
+  m.threads = matcher.threads();
+  m.warmup = plan.warmup;
+  const std::vector<double> ms =
+      time_frames([&] { matcher.compute(left, right); }, collect_stages, plan, t.setup.min_time_s);
+  for (std::size_t s = 0; s < stage_ms.size(); ++s)
+    m.stage_median_ms.push_back({matcher.timings()[s].stage, median(stage_ms[s])});
+  record(t, g, std::move(m), ms);
+}
+
+// Every group: OpenCV first, then every preset on every backend (reference and opencl, single-
+// threaded or on the device, in the group of the first --threads value only).
+void time_groups(Timing& t, const cv::Mat& left_source, const cv::Mat& right_source) {
+  const RunSetup& setup = t.setup;
+  std::printf("%-10s %5s %4s  %-18s %-9s %10s %10s %9s %7s %7s\n", "size", "disp", "thr", "method", "backend",
+              "median_ms", "p95_ms", "fps", "x BM", "frames");
+  std::fflush(stdout);
+  for (const FrameSize& size : setup.sizes) {
+    cv::Mat left, right;
+    cv::resize(left_source, left, cv::Size(size.width, size.height), 0, 0, cv::INTER_LINEAR);
+    cv::resize(right_source, right, cv::Size(size.width, size.height), 0, 0, cv::INTER_LINEAR);
+    for (const int num_disparities : setup.disparity_counts) {
+      const std::vector<Peer> peers = make_peers(0, num_disparities);
+      for (std::size_t ti = 0; ti < setup.thread_settings.size(); ++ti) {
+        Group g{size, num_disparities, setup.thread_settings[ti], ""};
+        g.label = size.text() + ", " + std::to_string(num_disparities) + " disparities, --threads " +
+                  std::to_string(g.threads_requested) + ": ";
+        cv::setNumThreads(g.threads_requested > 0 ? g.threads_requested : -1);  // -1: OpenCV's default
+        time_peers(t, g, peers, left, right);
+        for (const Backend backend : setup.backends) {
+          if ((backend == Backend::Reference || backend == Backend::OpenCL) && ti > 0) continue;
+          for (const std::string& name : setup.presets) {
+            t.progress.step(g.label + name + " (" + std::string(to_string(backend)) + ")");
+            if (const std::string problem = preset_problem(name, size, num_disparities); !problem.empty()) {
+              t.skips.note(name, size, num_disparities, problem);
+              continue;
+            }
+            time_preset(t, g, name, backend, image_view(left), image_view(right));
+          }
+        }
+      }
+    }
+  }
+}
+
+// Stage medians, tables of their own so that the one above stays within 120 columns: one per
+// list of stages (the host backends share one; opencl times its kernels).
+void print_stage_tables(const std::vector<Measurement>& measurements, Progress& progress) {
+  std::vector<std::vector<std::string>> stage_lists;
+  for (const Measurement& m : measurements) {
+    if (m.stage_median_ms.empty()) continue;
+    std::vector<std::string> names;
+    for (const StageTime& s : m.stage_median_ms) names.push_back(s.stage);
+    if (std::find(stage_lists.begin(), stage_lists.end(), names) == stage_lists.end()) stage_lists.push_back(names);
+  }
+  for (const std::vector<std::string>& stage_names : stage_lists) {
+    progress.clear();
+    std::printf("\nper-stage medians, ms (the matcher's own times; frame = the whole call%s)\n",
+                std::find(stage_names.begin(), stage_names.end(), "upload") != stage_names.end()
+                    ? "; opencl: kernels' device times, host times of upload, speckle, download"
+                    : "");
+    std::printf("%-10s %5s %4s  %-18s %-9s", "size", "disp", "thr", "method", "backend");
+    for (const std::string& s : stage_names) std::printf(" %8s", s.c_str());
+    std::printf("\n");
+    for (const Measurement& m : measurements) {
+      if (m.stage_median_ms.size() != stage_names.size() ||
+          !std::equal(stage_names.begin(), stage_names.end(), m.stage_median_ms.begin(),
+                      [](const std::string& n, const StageTime& s) { return n == s.stage; }))
+        continue;
+      std::printf("%-10s %5d %4d  %-18s %-9s", m.size.text().c_str(), m.num_disparities, m.threads, m.method.c_str(),
+                  m.backend.c_str());
+      for (const StageTime& s : m.stage_median_ms) std::printf(" %8.3f", s.ms);
+      std::printf("\n");
+    }
+    std::fflush(stdout);
+  }
+}
+
+// The memory probes run on the cpu backend unless only the reference backend was timed, with the
+// most threads asked for (the matcher holds match scratch per thread).
+Backend memory_backend_of(const RunSetup& setup) {
+  return setup.has(Backend::Cpu) || !setup.has(Backend::Reference) ? Backend::Cpu : Backend::Reference;
+}
+
+int memory_threads_of(const RunSetup& setup) {
+  if (memory_backend_of(setup) != Backend::Cpu) return 1;
+  const auto effective = [&](int t) { return t > 0 ? t : std::max(1, setup.settings.openmp_max_threads); };
+  return effective(*std::max_element(setup.thread_settings.begin(), setup.thread_settings.end(),
+                                     [&](int a, int b) { return effective(a) < effective(b); }));
+}
+
+// Memory: one fresh process per (size, range, preset). Host memory: the opencl backend's buffers
+// live on its device.
+std::vector<MemoryRecord> probe_memory(const RunSetup& setup, Progress& progress, SkipNotes& skips) {
+  const Backend backend = memory_backend_of(setup);
+  const int threads = memory_threads_of(setup);
+  std::vector<MemoryRecord> records;
+  for (const FrameSize& size : setup.sizes)
+    for (const int num_disparities : setup.disparity_counts)
+      for (const std::string& name : setup.presets) {
+        progress.step("memory of " + name + " at " + size.text() + ", " + std::to_string(num_disparities) +
+                      " disparities");
+        if (!preset_problem(name, size, num_disparities).empty()) continue;  // noted above
+        MatcherOptions options;
+        options.threads = threads;
+        MemoryRecord rec;
+        rec.method = name;
+        rec.backend = to_string(backend);
+        rec.size = size;
+        rec.num_disparities = num_disparities;
+        rec.threads = threads;
+        rec.estimate_bytes = estimate_memory(bench_params(name, num_disparities), size.width, size.height, options);
+        std::fflush(stdout);
+        const ProbeResult probe = spawn_memory_probe(probe_spec(size, num_disparities, name, backend, threads));
+        if (!probe.error.empty()) {
+          skips.note("memory of " + name, size, num_disparities, probe.error);
+          continue;
+        }
+        rec.baseline_bytes = static_cast<long long>(probe.baseline_kib) * 1024;
+        rec.peak_bytes = static_cast<long long>(probe.peak_kib - probe.baseline_kib) * 1024;
+        rec.peak_measure = probe.measure;
+        records.push_back(rec);
+      }
+  progress.clear();
+  return records;
+}
+
+void print_memory_table(const RunSetup& setup, const std::vector<MemoryRecord>& records) {
+  std::printf(
+      "\nmatcher memory, MiB: peak resident memory of a fresh process that builds the matcher and matches\n"
+      "one frame, over what it held just before; estimate_memory() next to it (%s backend, %d threads)\n",
+      std::string(to_string(memory_backend_of(setup))).c_str(), memory_threads_of(setup));
+  std::printf("%-10s %5s  %-18s %10s %12s %9s\n", "size", "disp", "method", "peak", "estimate", "peak/est");
+  for (const MemoryRecord& rec : records)
+    std::printf(
+        "%-10s %5d  %-18s %10s %12s %9s\n", rec.size.text().c_str(), rec.num_disparities, rec.method.c_str(),
+        mib(static_cast<double>(rec.peak_bytes)).c_str(), mib(static_cast<double>(rec.estimate_bytes)).c_str(),
+        rec.estimate_bytes > 0 ? fixed(static_cast<double>(rec.peak_bytes) / rec.estimate_bytes, 2).c_str() : "-");
+}
+
+// The largest size: the report's memory estimates are those of its first range.
+FrameSize largest_size(const RunSetup& setup) {
+  return *std::max_element(setup.sizes.begin(), setup.sizes.end(),
+                           [](const FrameSize& a, const FrameSize& b) { return a.pixels() < b.pixels(); });
+}
+
+Json settings_json(const RunSetup& setup) {
+  Json j = Json::object();
+  j.set("cpu_model", setup.settings.cpu);
+  j.set("cores_online", setup.settings.cores_online);
+  j.set("load_threads", setup.load);
+  const char* spin = std::getenv("GOMP_SPINCOUNT");
+  const char* policy = std::getenv("OMP_WAIT_POLICY");
+  j.set("gomp_spincount", spin ? spin : "");
+  j.set("omp_wait_policy", policy ? policy : "");
+  j.set("simd_target", setup.simd_target);
+  j.set("backend", to_string(setup.backends.front()));
+  j.set("threads_requested", setup.thread_settings.front());
+  j.set("threads", setup.backends.front() == Backend::Reference ? 1
+                   : setup.thread_settings.front() > 0          ? setup.thread_settings.front()
+                                                                : setup.settings.openmp_max_threads);
+  j.set("opencv_threads", setup.first_opencv_threads);
+  j.set("mctstereo_version", MCTSTEREO_VERSION);
+  j.set("opencv_version", CV_VERSION);
+  j.set("openmp_max_threads", setup.settings.openmp_max_threads);
+  j.set("compiler", compiler_version());
+  j.set("build_type", build_type());
+  j.set("date", utc_date());
+  Json backends = Json::array(), threads = Json::array(), disparities = Json::array(), sizes = Json::array(),
+       presets = Json::array();
+  for (const Backend b : setup.backends) backends.push_back(to_string(b));
+  for (const int t : setup.thread_settings) threads.push_back(t);
+  for (const int d : setup.disparity_counts) disparities.push_back(d);
+  for (const FrameSize& s : setup.sizes) sizes.push_back(s.text());
+  for (const std::string& p : setup.presets) presets.push_back(p);
+  j.set("backends", std::move(backends));
+  if (!setup.opencl_device.empty()) j.set("opencl_device", setup.opencl_device);
+  j.set("thread_settings", std::move(threads));
+  j.set("num_disparities", std::move(disparities));
+  j.set("sizes", std::move(sizes));
+  j.set("presets", std::move(presets));
+  j.set("warmup_frames", setup.warmup);
+  j.set("min_frames", setup.frames);
+  j.set("min_time_s", setup.min_time_s);
+  j.set("left_image", setup.left_path);
+  j.set("right_image", setup.right_path);
+  return j;
+}
+
+Json measurement_json(const Measurement& m) {
+  Json rec = Json::object();
+  rec.set("method", m.method);
+  rec.set("kind", m.kind);
+  rec.set("width", m.size.width);
+  rec.set("height", m.size.height);
+  rec.set("num_disparities", m.num_disparities);
+  rec.set("threads", m.threads);
+  rec.set("frames", m.frames);
+  rec.set("median_ms", m.median_ms);
+  rec.set("p95_ms", m.p95_ms);
+  rec.set("fps", m.fps());
+  if (!m.backend.empty()) rec.set("backend", m.backend);
+  rec.set("threads_requested", m.threads_requested);
+  rec.set("warmup_frames", m.warmup);
+  if (!m.stage_median_ms.empty()) rec.set("stage_median_ms", stage_json(m.stage_median_ms));
+  rec.set("ratio_to_stereobm", m.ratio_to_stereobm);  // null without a StereoBM time
+  return rec;
+}
+
+Json memory_record_json(const MemoryRecord& m) {
+  Json rec = Json::object();
+  rec.set("method", m.method);
+  rec.set("width", m.size.width);
+  rec.set("height", m.size.height);
+  rec.set("num_disparities", m.num_disparities);
+  rec.set("backend", m.backend);
+  rec.set("threads", m.threads);
+  rec.set("estimate_memory_bytes", m.estimate_bytes);
+  rec.set("peak_resident_bytes", m.peak_bytes);
+  rec.set("baseline_resident_bytes", m.baseline_bytes);
+  rec.set("peak_measure", m.peak_measure);
+  return rec;
+}
+
+Json memory_json(const RunSetup& setup, const std::vector<MemoryRecord>& records, long peak_kib) {
+  const FrameSize largest = largest_size(setup);
+  Json estimates = Json::object();
+  for (const MemoryRecord& rec : records)
+    if (rec.size == largest && rec.num_disparities == setup.disparity_counts.front())
+      estimates.set(rec.method, rec.estimate_bytes);
+  Json list = Json::array();
+  for (const MemoryRecord& rec : records) list.push_back(memory_record_json(rec));
+  Json memory = Json::object();
+  memory.set("peak_resident_bytes", static_cast<long long>(peak_kib) * 1024);
+  memory.set("estimate_size", largest.text());
+  memory.set("estimate_num_disparities", setup.disparity_counts.front());
+  memory.set("estimate_memory_bytes", std::move(estimates));
+  memory.set("records", std::move(list));
+  return memory;
+}
+
+Json json_report(const RunSetup& setup, const Timing& timing, const std::vector<MemoryRecord>& memory,
+                 long peak_kib) {
+  Json records = Json::array();
+  for (const Measurement& m : timing.measurements) records.push_back(measurement_json(m));
+  Json report = Json::object();
+  report.set("settings", settings_json(setup));
+  report.set("records", std::move(records));
+  report.set("memory", memory_json(setup, memory, peak_kib));
+  report.set("skipped", timing.skips.skipped());
+  return report;
+}
+
 }  // namespace
 
 BenchCommand::BenchCommand(CLI::App& parent)
@@ -520,12 +959,13 @@ void BenchCommand::run() const {
     return;
   }
   if (load_probe_ > 0) run_load_probe(load_probe_);
-  const std::vector<FrameSize> sizes = parse_sizes(sizes_);
-  const std::vector<int> disparity_counts = parse_counts("--num-disparities", num_disparities_, 1, 2048);
-  const std::vector<int> thread_settings = parse_counts("--threads", threads_, 0, 4096);
-  std::vector<Backend> backends = parse_backends(backends_);
-  const std::vector<std::string> presets = presets_.empty() ? preset_names() : presets_;
-  for (const std::string& name : presets) {
+  RunSetup setup;
+  setup.sizes = parse_sizes(sizes_);
+  setup.disparity_counts = parse_counts("--num-disparities", num_disparities_, 1, 2048);
+  setup.thread_settings = parse_counts("--threads", threads_, 0, 4096);
+  setup.backends = parse_backends(backends_);
+  setup.presets = presets_.empty() ? preset_names() : presets_;
+  for (const std::string& name : setup.presets) {
     try {
       (void)preset(name);
     } catch (const std::invalid_argument& e) {
@@ -535,379 +975,42 @@ void BenchCommand::run() const {
   if (image_left_.empty() != image_right_.empty())
     throw UsageError("--image-left and --image-right go together: give both or neither");
   if (!json_.empty()) check_output_path(json_, {image_left_, image_right_}, "JSON report");
-
-  const auto [left_path, right_path] =
+  std::tie(setup.left_path, setup.right_path) =
       image_left_.empty() ? find_sample_pair(data_) : std::pair{image_left_, image_right_};
-  const cv::Mat left_source = read_gray_image(left_path, "left image");
-  const cv::Mat right_source = read_gray_image(right_path, "right image");
-  if (left_source.size() != right_source.size())
-    throw RuntimeError("left image " + in_quotes(left_path) + " and right image " + in_quotes(right_path) +
+  const cv::Mat left = read_gray_image(setup.left_path, "left image");
+  const cv::Mat right = read_gray_image(setup.right_path, "right image");
+  if (left.size() != right.size())
+    throw RuntimeError("left image " + in_quotes(setup.left_path) + " and right image " + in_quotes(setup.right_path) +
                        " differ in size");
-
-  if (!device_.empty() && std::find(backends.begin(), backends.end(), Backend::OpenCL) == backends.end() &&
-      std::find(backends.begin(), backends.end(), Backend::Auto) == backends.end())
+  if (!device_.empty() && !setup.has(Backend::OpenCL) && !setup.has(Backend::Auto))
     throw UsageError("--device " + device_ + ": only --backend opencl and auto run on an OpenCL device");
-  // auto becomes what it picks (once in the list); the OpenCL device is opened before any timing,
-  // so that a missing one costs nothing.
-  std::string opencl_device;
-  for (std::size_t i = 0; i < backends.size(); ++i) {
-    if (backends[i] != Backend::Auto && backends[i] != Backend::OpenCL) continue;
-    const Matcher probe = open_backend(backends[i], device_);
-    if (backends[i] == Backend::Auto) {
-      if (!probe.notice().empty()) std::cerr << "mctstereo: note: --backend auto: " << probe.notice() << "\n";
-      if (std::find(backends.begin(), backends.end(), probe.backend()) != backends.end()) {
-        backends.erase(backends.begin() + static_cast<std::ptrdiff_t>(i--));
-        continue;
-      }
-      backends[i] = probe.backend();
-    }
-    if (probe.backend() == Backend::OpenCL) opencl_device = probe.device_name();
-  }
+  setup.device = device_;
+  setup.opencl_device = resolve_backends(setup.backends, device_);
+  setup.settings = probe_settings();
+  setup.simd_target = setup.has(Backend::Cpu) ? setup.settings.simd_target : "scalar";
+  setup.warmup = warmup_;
+  setup.frames = frames_;
+  setup.min_time_s = min_time_s_;
+  setup.load = load_;
+  print_header(setup);
 
-  const Settings settings = probe_settings();
-  const bool have_cpu = std::find(backends.begin(), backends.end(), Backend::Cpu) != backends.end();
-  const std::string simd_target = have_cpu ? settings.simd_target : "scalar";
-  auto join = [](const auto& items, auto text) {
-    std::string s;
-    for (const auto& item : items) s += (s.empty() ? "" : ",") + text(item);
-    return s;
-  };
-  const std::string backends_text = join(backends, [](Backend b) { return std::string(to_string(b)); });
-  const std::string threads_text = join(thread_settings, [](int t) { return std::to_string(t); });
-  std::printf("CPU       %s, %ld cores online\n", settings.cpu.c_str(), settings.cores_online);
-  std::printf("SIMD      %s; OpenMP %d threads by default; timed with --threads %s, --backend %s\n",
-              simd_target.c_str(), settings.openmp_max_threads, threads_text.c_str(), backends_text.c_str());
-  if (!opencl_device.empty()) std::printf("OpenCL    %s\n", opencl_device.c_str());
-  std::printf("versions  mctstereo %s, OpenCV %s, %s, build %s\n", MCTSTEREO_VERSION, CV_VERSION,
-              compiler_version().c_str(), build_type().c_str());
-  const char* spin_env = std::getenv("GOMP_SPINCOUNT");
-  const char* policy_env = std::getenv("OMP_WAIT_POLICY");
-  std::printf("waiting   OpenMP threads wait with GOMP_SPINCOUNT=%s, OMP_WAIT_POLICY=%s\n", spin_env ? spin_env : "(unset)",
-              policy_env ? policy_env : "(unset)");
-  if (load_ > 0) std::printf("load      %d busy threads in another process during the timing\n", load_);
-  std::printf("date      %s\n\n", utc_date().c_str());
-
-  // Progress steps: per (size, range) the peers and cpu presets per thread setting, the reference
-  // and opencl presets once, and one memory probe per preset.
-  const bool have_reference = std::find(backends.begin(), backends.end(), Backend::Reference) != backends.end();
-  const bool have_opencl_backend = !opencl_device.empty();
-  const int preset_count = static_cast<int>(presets.size());
-  const int steps = static_cast<int>(sizes.size() * disparity_counts.size()) *
-                    (static_cast<int>(thread_settings.size()) * (2 + (have_cpu ? preset_count : 0)) +
-                     (have_reference ? preset_count : 0) + (have_opencl_backend ? preset_count : 0) + preset_count);
-  Progress progress(steps);
-
-  // What cannot run (a preset invalid at a size, OpenCV too narrow a frame): noted once per
-  // (method, size, range), though it comes up for every thread setting and backend.
-  Json skipped = Json::array();
-  std::set<std::string> skip_notes;
-  auto skip = [&](const std::string& method, const FrameSize& size, int num_disparities, const std::string& reason) {
-    if (!skip_notes.insert(method + " " + size.text() + " " + std::to_string(num_disparities)).second) return;
-    progress.clear();
-    std::cerr << "mctstereo: note: skipping " << method << " at " << size.text() << " with " << num_disparities
-              << " disparities: " << reason << "\n";
-    Json s = Json::object();
-    s.set("method", method);
-    s.set("size", size.text());
-    s.set("num_disparities", num_disparities);
-    s.set("reason", reason);
-    skipped.push_back(std::move(s));
-  };
-  // The first problem validate() finds with a preset at a size, "" when it suits.
-  auto preset_problem = [&](const std::string& name, const FrameSize& size, int num_disparities) {
-    const std::string problems = bench_params(name, num_disparities).validate(size.width, size.height);
-    return problems.substr(0, problems.find('\n'));
-  };
-
-  std::vector<Measurement> measurements;
-  std::printf("%-10s %5s %4s  %-18s %-9s %10s %10s %9s %7s %7s\n", "size", "disp", "thr", "method", "backend",
-              "median_ms", "p95_ms", "fps", "x BM", "frames");
-  std::fflush(stdout);
-  auto print_row = [&](const Measurement& m) {
-    const std::string ratio = std::isnan(m.ratio_to_stereobm) ? "-" : fixed(m.ratio_to_stereobm, 3);
-    progress.clear();
-    std::printf("%-10s %5d %4d  %-18s %-9s %10.3f %10.3f %9.1f %7s %7d\n", m.size.text().c_str(), m.num_disparities,
-                m.threads, m.method.c_str(), m.backend.empty() ? "-" : m.backend.c_str(), m.median_ms, m.p95_ms,
-                m.fps(), ratio.c_str(), m.frames);
-    std::fflush(stdout);
-  };
-  const auto set_opencv_threads = [](int threads) { cv::setNumThreads(threads > 0 ? threads : -1); };  // -1: default
-  set_opencv_threads(thread_settings.front());
-  const int first_opencv_threads = cv::getNumThreads();
-
-  // The load runs while every method is timed (the peers as well), and stops before the memory
-  // probes.
+  Progress progress(progress_steps(setup));
+  SkipNotes skips(progress);
+  Timing timing{setup, progress, skips, {}};
+  cv::setNumThreads(setup.thread_settings.front() > 0 ? setup.thread_settings.front() : -1);
+  setup.first_opencv_threads = cv::getNumThreads();
+  // The load runs while every method is timed (the peers as well), and stops before the memory probes.
   std::optional<CpuLoad> load(std::in_place, load_);
-  for (const FrameSize& size : sizes) {
-    cv::Mat left, right;
-    cv::resize(left_source, left, cv::Size(size.width, size.height), 0, 0, cv::INTER_LINEAR);
-    cv::resize(right_source, right, cv::Size(size.width, size.height), 0, 0, cv::INTER_LINEAR);
-    const ImageView l = image_view(left), r = image_view(right);
-    for (const int num_disparities : disparity_counts) {
-      const std::vector<Peer> peers = make_peers(0, num_disparities);
-      for (std::size_t ti = 0; ti < thread_settings.size(); ++ti) {
-        const int threads_requested = thread_settings[ti];
-        set_opencv_threads(threads_requested);
-        const std::string group = size.text() + ", " + std::to_string(num_disparities) + " disparities, --threads " +
-                                  std::to_string(threads_requested) + ": ";
-        double stereobm_fps = std::numeric_limits<double>::quiet_NaN();
-        auto finish = [&](Measurement m, const std::vector<double>& ms) {
-          m.size = size;
-          m.threads_requested = threads_requested;
-          m.frames = static_cast<int>(ms.size());
-          m.median_ms = median(ms);
-          m.p95_ms = percentile(ms, 95.0);
-          if (m.method == "opencv-stereobm") stereobm_fps = m.fps();
-          m.ratio_to_stereobm = m.fps() / stereobm_fps;  // NaN without StereoBM
-          print_row(m);
-          measurements.push_back(std::move(m));
-        };
-
-        // OpenCV first: StereoBM is the yardstick of the ratios.
-        const FramePlan opencv_plan = frame_plan(size, false, warmup_, frames_);
-        for (const Peer& peer : peers) {
-          progress.step(group + peer.name);
-          const int opencv_disparities = peer.matcher->getNumDisparities();
-          if (const std::string reason = peer_unsupported_reason(peer, size.width); !reason.empty()) {
-            skip(peer.name, size, opencv_disparities, reason);
-            continue;
-          }
-          try {
-            cv::Mat disparity;
-            Measurement m;
-            m.method = peer.name;
-            m.kind = "opencv";
-            m.num_disparities = opencv_disparities;
-            m.threads = cv::getNumThreads();
-            m.warmup = opencv_plan.warmup;
-            finish(m,
-                   time_frames([&] { peer.matcher->compute(left, right, disparity); }, {}, opencv_plan, min_time_s_));
-          } catch (const cv::Exception& e) {
-            skip(peer.name, size, opencv_disparities, "OpenCV: " + e.err);
-          }
-        }
-
-        for (const Backend backend : backends) {
-          // Single-threaded, or on the device: timed once.
-          if ((backend == Backend::Reference || backend == Backend::OpenCL) && ti > 0) continue;
-          const FramePlan plan = frame_plan(size, backend == Backend::Reference, warmup_, frames_);
-          for (const std::string& name : presets) {
-            progress.step(group + name + " (" + std::string(to_string(backend)) + ")");
-            if (const std::string problem = preset_problem(name, size, num_disparities); !problem.empty()) {
-              skip(name, size, num_disparities, problem);
-              continue;
-            }
-            MatcherOptions options;
-            options.threads = threads_requested;
-            options.device = device_;
-            Matcher matcher = open_backend(backend, device_, size, bench_params(name, num_disparities), options);
-            std::vector<std::vector<double>> stage_ms;
-            auto collect_stages = [&] {
-              const std::vector<StageTime>& t = matcher.timings();
-              stage_ms.resize(t.size());
-              for (std::size_t s = 0; s < t.size(); ++s) stage_ms[s].push_back(t[s].ms);
-            };
-            Measurement m;
-            m.method = name;
-            m.kind = "mctstereo";
-            m.backend = to_string(matcher.backend());
-            m.num_disparities = num_disparities;
-            m.threads = matcher.threads();
-            m.warmup = plan.warmup;
-            const std::vector<double> ms =
-                time_frames([&] { matcher.compute(l, r); }, collect_stages, plan, min_time_s_);
-            for (std::size_t s = 0; s < stage_ms.size(); ++s)
-              m.stage_median_ms.push_back({matcher.timings()[s].stage, median(stage_ms[s])});
-            finish(std::move(m), ms);
-          }
-        }
-      }
-    }
-  }
-
+  time_groups(timing, left, right);
   load.reset();
+  print_stage_tables(timing.measurements, progress);
 
-  // Stage medians, tables of their own so that the one above stays within 120 columns: one per
-  // list of stages (the host backends share one; opencl times its kernels).
-  std::vector<std::vector<std::string>> stage_lists;
-  for (const Measurement& m : measurements) {
-    if (m.stage_median_ms.empty()) continue;
-    std::vector<std::string> names;
-    for (const StageTime& s : m.stage_median_ms) names.push_back(s.stage);
-    if (std::find(stage_lists.begin(), stage_lists.end(), names) == stage_lists.end()) stage_lists.push_back(names);
-  }
-  for (const std::vector<std::string>& stage_names : stage_lists) {
-    progress.clear();
-    std::printf("\nper-stage medians, ms (the matcher's own times; frame = the whole call%s)\n",
-                std::find(stage_names.begin(), stage_names.end(), "upload") != stage_names.end()
-                    ? "; opencl: kernels' device times, host times of upload, speckle, download"
-                    : "");
-    std::printf("%-10s %5s %4s  %-18s %-9s", "size", "disp", "thr", "method", "backend");
-    for (const std::string& s : stage_names) std::printf(" %8s", s.c_str());
-    std::printf("\n");
-    for (const Measurement& m : measurements) {
-      if (m.stage_median_ms.size() != stage_names.size() ||
-          !std::equal(stage_names.begin(), stage_names.end(), m.stage_median_ms.begin(),
-                      [](const std::string& n, const StageTime& s) { return n == s.stage; }))
-        continue;
-      std::printf("%-10s %5d %4d  %-18s %-9s", m.size.text().c_str(), m.num_disparities, m.threads, m.method.c_str(),
-                  m.backend.c_str());
-      for (const StageTime& s : m.stage_median_ms) std::printf(" %8.3f", s.ms);
-      std::printf("\n");
-    }
-    std::fflush(stdout);
-  }
-
-  // Memory: one fresh process per (size, range, preset), on the cpu backend unless only the
-  // reference backend was timed, with the most threads asked for (the matcher holds match scratch
-  // per thread). Host memory: the opencl backend's buffers live on its device.
-  const Backend memory_backend = have_cpu || !have_reference ? Backend::Cpu : Backend::Reference;
-  int memory_threads = 1;
-  if (memory_backend == Backend::Cpu) {
-    const auto effective = [&](int t) { return t > 0 ? t : std::max(1, settings.openmp_max_threads); };
-    memory_threads = *std::max_element(thread_settings.begin(), thread_settings.end(),
-                                       [&](int a, int b) { return effective(a) < effective(b); });
-    memory_threads = effective(memory_threads);
-  }
-  std::vector<MemoryRecord> memory_records;
-  for (const FrameSize& size : sizes)
-    for (const int num_disparities : disparity_counts)
-      for (const std::string& name : presets) {
-        progress.step("memory of " + name + " at " + size.text() + ", " + std::to_string(num_disparities) +
-                      " disparities");
-        if (!preset_problem(name, size, num_disparities).empty()) continue;  // noted above
-        MatcherOptions options;
-        options.threads = memory_threads;
-        MemoryRecord rec;
-        rec.method = name;
-        rec.backend = to_string(memory_backend);
-        rec.size = size;
-        rec.num_disparities = num_disparities;
-        rec.threads = memory_threads;
-        rec.estimate_bytes = estimate_memory(bench_params(name, num_disparities), size.width, size.height, options);
-        std::fflush(stdout);
-        const ProbeResult probe =
-            spawn_memory_probe(probe_spec(size, num_disparities, name, memory_backend, memory_threads));
-        if (!probe.error.empty()) {
-          skip("memory of " + name, size, num_disparities, probe.error);
-          continue;
-        }
-        rec.baseline_bytes = static_cast<long long>(probe.baseline_kib) * 1024;
-        rec.peak_bytes = static_cast<long long>(probe.peak_kib - probe.baseline_kib) * 1024;
-        rec.peak_measure = probe.measure;
-        memory_records.push_back(rec);
-      }
-  progress.clear();
-  std::printf(
-      "\nmatcher memory, MiB: peak resident memory of a fresh process that builds the matcher and matches\n"
-      "one frame, over what it held just before; estimate_memory() next to it (%s backend, %d threads)\n",
-      std::string(to_string(memory_backend)).c_str(), memory_threads);
-  std::printf("%-10s %5s  %-18s %10s %12s %9s\n", "size", "disp", "method", "peak", "estimate", "peak/est");
-  for (const MemoryRecord& rec : memory_records)
-    std::printf(
-        "%-10s %5d  %-18s %10s %12s %9s\n", rec.size.text().c_str(), rec.num_disparities, rec.method.c_str(),
-        mib(static_cast<double>(rec.peak_bytes)).c_str(), mib(static_cast<double>(rec.estimate_bytes)).c_str(),
-        rec.estimate_bytes > 0 ? fixed(static_cast<double>(rec.peak_bytes) / rec.estimate_bytes, 2).c_str() : "-");
-
-  // The first range at the largest size, as the report always held.
-  const FrameSize largest = *std::max_element(
-      sizes.begin(), sizes.end(), [](const FrameSize& a, const FrameSize& b) { return a.pixels() < b.pixels(); });
-  Json estimates = Json::object();
-  for (const MemoryRecord& rec : memory_records)
-    if (rec.size == largest && rec.num_disparities == disparity_counts.front())
-      estimates.set(rec.method, rec.estimate_bytes);
+  const std::vector<MemoryRecord> memory = probe_memory(setup, progress, skips);
+  print_memory_table(setup, memory);
   const long peak_kib = status_kib("VmHWM");
   std::printf("peak resident memory of this process (every size): %s MiB\n", mib(peak_kib * 1024.0).c_str());
   std::fflush(stdout);
-
-  if (json_.empty()) return;
-  Json settings_json = Json::object();
-  settings_json.set("cpu_model", settings.cpu);
-  settings_json.set("cores_online", settings.cores_online);
-  settings_json.set("load_threads", load_);
-  const char* spin = std::getenv("GOMP_SPINCOUNT");
-  const char* policy = std::getenv("OMP_WAIT_POLICY");
-  settings_json.set("gomp_spincount", spin ? spin : "");
-  settings_json.set("omp_wait_policy", policy ? policy : "");
-  settings_json.set("simd_target", simd_target);
-  settings_json.set("backend", to_string(backends.front()));
-  settings_json.set("threads_requested", thread_settings.front());
-  settings_json.set("threads", backends.front() == Backend::Reference ? 1
-                               : thread_settings.front() > 0          ? thread_settings.front()
-                                                                      : settings.openmp_max_threads);
-  settings_json.set("opencv_threads", first_opencv_threads);
-  settings_json.set("mctstereo_version", MCTSTEREO_VERSION);
-  settings_json.set("opencv_version", CV_VERSION);
-  settings_json.set("openmp_max_threads", settings.openmp_max_threads);
-  settings_json.set("compiler", compiler_version());
-  settings_json.set("build_type", build_type());
-  settings_json.set("date", utc_date());
-  Json backends_json = Json::array(), threads_json = Json::array(), disparities_json = Json::array(),
-       sizes_json = Json::array(), presets_json = Json::array();
-  for (const Backend b : backends) backends_json.push_back(to_string(b));
-  for (const int t : thread_settings) threads_json.push_back(t);
-  for (const int d : disparity_counts) disparities_json.push_back(d);
-  for (const FrameSize& s : sizes) sizes_json.push_back(s.text());
-  for (const std::string& p : presets) presets_json.push_back(p);
-  settings_json.set("backends", std::move(backends_json));
-  if (!opencl_device.empty()) settings_json.set("opencl_device", opencl_device);
-  settings_json.set("thread_settings", std::move(threads_json));
-  settings_json.set("num_disparities", std::move(disparities_json));
-  settings_json.set("sizes", std::move(sizes_json));
-  settings_json.set("presets", std::move(presets_json));
-  settings_json.set("warmup_frames", warmup_);
-  settings_json.set("min_frames", frames_);
-  settings_json.set("min_time_s", min_time_s_);
-  settings_json.set("left_image", left_path);
-  settings_json.set("right_image", right_path);
-
-  Json records = Json::array();
-  for (const Measurement& m : measurements) {
-    Json rec = Json::object();
-    rec.set("method", m.method);
-    rec.set("kind", m.kind);
-    rec.set("width", m.size.width);
-    rec.set("height", m.size.height);
-    rec.set("num_disparities", m.num_disparities);
-    rec.set("threads", m.threads);
-    rec.set("frames", m.frames);
-    rec.set("median_ms", m.median_ms);
-    rec.set("p95_ms", m.p95_ms);
-    rec.set("fps", m.fps());
-    if (!m.backend.empty()) rec.set("backend", m.backend);
-    rec.set("threads_requested", m.threads_requested);
-    rec.set("warmup_frames", m.warmup);
-    if (!m.stage_median_ms.empty()) rec.set("stage_median_ms", stage_json(m.stage_median_ms));
-    rec.set("ratio_to_stereobm", m.ratio_to_stereobm);  // null without a StereoBM time
-    records.push_back(std::move(rec));
-  }
-  Json memory_json = Json::array();
-  for (const MemoryRecord& m : memory_records) {
-    Json rec = Json::object();
-    rec.set("method", m.method);
-    rec.set("width", m.size.width);
-    rec.set("height", m.size.height);
-    rec.set("num_disparities", m.num_disparities);
-    rec.set("backend", m.backend);
-    rec.set("threads", m.threads);
-    rec.set("estimate_memory_bytes", m.estimate_bytes);
-    rec.set("peak_resident_bytes", m.peak_bytes);
-    rec.set("baseline_resident_bytes", m.baseline_bytes);
-    rec.set("peak_measure", m.peak_measure);
-    memory_json.push_back(std::move(rec));
-  }
-  Json memory = Json::object();
-  memory.set("peak_resident_bytes", static_cast<long long>(peak_kib) * 1024);
-  memory.set("estimate_size", largest.text());
-  memory.set("estimate_num_disparities", disparity_counts.front());
-  memory.set("estimate_memory_bytes", std::move(estimates));
-  memory.set("records", std::move(memory_json));
-  Json report = Json::object();
-  report.set("settings", std::move(settings_json));
-  report.set("records", std::move(records));
-  report.set("memory", std::move(memory));
-  report.set("skipped", std::move(skipped));
-  write_json_file(json_, report);
+  if (!json_.empty()) write_json_file(json_, json_report(setup, timing, memory, peak_kib));
 }
 
 }  // namespace mctstereo::app

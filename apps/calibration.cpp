@@ -3,6 +3,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cctype>
 #include <cerrno>
 #include <cmath>
@@ -336,48 +337,34 @@ class StorageReader {
   const FileErrors& errors_;
 };
 
-// Rectified geometry of a horizontal pair from its projection matrices (OpenCV's stereoRectify):
-// P1 = [f 0 cx 0; 0 f cy 0; 0 0 1 0], P2 = [f 0 cx2 -f B; 0 f cy 0; 0 0 1 0].
-StereoGeometry geometry_from_projections(const cv::Mat& P1, const cv::Mat& P2, const FileErrors& errors) {
-  StereoGeometry g;
-  g.focal = P1.at<double>(0, 0);
-  g.cx = P1.at<double>(0, 2);
-  g.cy = P1.at<double>(1, 2);
-  if (!(g.focal > 0)) errors.malformed("P1", "has a focal length P1(0,0) = " + number_text(g.focal) + " <= 0");
-  if (!(P2.at<double>(0, 0) > 0))
-    errors.malformed("P2", "has a focal length P2(0,0) = " + number_text(P2.at<double>(0, 0)) + " <= 0");
-  if (P2.at<double>(1, 3) != 0.0)
-    errors.malformed("P2", "describes a vertical pair (P2(1,3) != 0): only left-right pairs are matched");
-  g.baseline = -P2.at<double>(0, 3) / P2.at<double>(0, 0);
-  if (!(g.baseline > 0))
-    errors.malformed("P2", "gives a baseline -P2(0,3)/P2(0,0) = " + number_text(g.baseline) +
-                               " <= 0 (are the left and right cameras swapped?)");
-  g.doffs = P2.at<double>(0, 2) - g.cx;
-  return g;
+// The values of a matrix of doubles, row by row (its size checked when it was read).
+template <std::size_t N>
+std::array<double, N> matrix_values(const cv::Mat& m) {
+  std::array<double, N> values{};
+  for (std::size_t i = 0; i < N; ++i)
+    values[i] = m.at<double>(static_cast<int>(i) / m.cols, static_cast<int>(i) % m.cols);
+  return values;
 }
 
-// The same from Q = [1 0 0 -cx; 0 1 0 -cy; 0 0 0 f; 0 0 1/B doffs/B] (reprojectImageTo3D's matrix).
-StereoGeometry geometry_from_q(const cv::Mat& Q, const FileErrors& errors) {
-  StereoGeometry g;
-  g.cx = -Q.at<double>(0, 3);
-  g.cy = -Q.at<double>(1, 3);
-  g.focal = Q.at<double>(2, 3);
-  if (!(g.focal > 0)) errors.malformed("Q", "has a focal length Q(2,3) = " + number_text(g.focal) + " <= 0");
-  const double inverse_baseline = Q.at<double>(3, 2);
-  if (!(inverse_baseline > 0))
-    errors.malformed("Q", "gives a baseline 1/Q(3,2) that is not positive (Q(3,2) = " + number_text(inverse_baseline) +
-                              "; are the left and right cameras swapped?)");
-  g.baseline = 1.0 / inverse_baseline;
-  g.doffs = Q.at<double>(3, 3) * g.baseline;
-  return g;
+cv::Mat matrix_of(const double* values, int rows, int cols) {
+  return cv::Mat(rows, cols, CV_64F, const_cast<double*>(values)).clone();
+}
+
+// The geometry from P1 and P2, or from Q (the library's), its problems as the file's.
+StereoGeometry geometry_of(const cv::Mat& P1, const cv::Mat& P2, const cv::Mat& Q, const FileErrors& errors) {
+  try {
+    if (!P1.empty()) return geometry_from_projections(matrix_values<12>(P1), matrix_values<12>(P2));
+    return geometry_from_reprojection(matrix_values<16>(Q));
+  } catch (const GeometryMatrixError& e) {
+    errors.malformed(e.matrix(), e.problem());
+  }
 }
 
 // P1, P2 and Q of a rectified geometry, in OpenCV's form (CALIB_ZERO_DISPARITY aside from doffs).
 void projections_of(const StereoGeometry& g, cv::Mat& P1, cv::Mat& P2, cv::Mat& Q) {
-  P1 = (cv::Mat_<double>(3, 4) << g.focal, 0, g.cx, 0, 0, g.focal, g.cy, 0, 0, 0, 1, 0);
-  P2 = (cv::Mat_<double>(3, 4) << g.focal, 0, g.cx + g.doffs, -g.focal * g.baseline, 0, g.focal, g.cy, 0, 0, 0, 1, 0);
-  Q = (cv::Mat_<double>(4, 4) << 1, 0, 0, -g.cx, 0, 1, 0, -g.cy, 0, 0, 0, g.focal, 0, 0, 1.0 / g.baseline,
-       g.doffs / g.baseline);
+  P1 = matrix_of(left_projection(g).data(), 3, 4);
+  P2 = matrix_of(right_projection(g).data(), 3, 4);
+  Q = matrix_of(reprojection_matrix(g).data(), 4, 4);
 }
 
 // The names of several files for messages: "a.yml + b.yml".
@@ -466,10 +453,8 @@ Calibration read_storage(const std::vector<std::string>& paths, int image_width,
     errors.missing(c.R.empty() ? "R" : "T", "R and T come together");
   }
 
-  if (!c.P1.empty()) {
-    c.geometry = geometry_from_projections(c.P1, c.P2, errors);
-  } else if (!c.Q.empty()) {
-    c.geometry = geometry_from_q(c.Q, errors);
+  if (!c.P1.empty() || !c.Q.empty()) {
+    c.geometry = geometry_of(c.P1, c.P2, c.Q, errors);
   } else {
     errors.missing("P1", "the file needs P1 and P2, or Q, or K1, D1, K2, D2, R and T");
   }

@@ -71,6 +71,7 @@
 #include <iostream>
 #include <iterator>
 #include <limits>
+#include <functional>
 #include <optional>
 #include <sstream>
 #include <tuple>
@@ -225,75 +226,18 @@ MapView<T> mutable_map_view(cv::Mat& m) {
   return {m.ptr<T>(0), m.cols, m.rows, static_cast<std::ptrdiff_t>(m.step[0] / sizeof(T))};
 }
 
-// The largest ground truth read: the largest image the matcher takes.
-constexpr long kMaxPfmSide = 32768;
-
-// A PFM file as Middlebury 2014 stores ground truth: "Pf" (one channel), width and height, a
-// scale whose sign is the byte order (negative: little-endian), one whitespace byte, then 32-bit
-// floats with the bottom row first. Returned top row first, CV_32F.
+// A one-channel PFM file (mctstereo::decode_pfm), as Middlebury 2014 stores ground truth: top row
+// first, CV_32F.
 cv::Mat read_pfm(const std::string& path, const std::string& role) {
   const std::string what = role + " " + in_quotes(path);
-  const std::string text = read_input_file(path, role);
-  const std::vector<unsigned char> bytes(text.begin(), text.end());
-
-  std::size_t at = 0;
-  const auto skip_space = [&] {
-    while (at < bytes.size() && std::isspace(bytes[at])) ++at;
-  };
-  const auto token = [&] {
-    skip_space();
-    std::string t;
-    while (at < bytes.size() && !std::isspace(bytes[at]) && t.size() < 32) t += static_cast<char>(bytes[at++]);
-    return t;
-  };
-  const std::string magic = token();
-  if (magic == "PF")
-    throw RuntimeError(what + " is a colour PFM (PF): ground truth must have one channel (Pf)");
-  if (magic != "Pf") throw RuntimeError(what + " is not a PFM file: it must start with 'Pf'");
-  const std::string width_text = token(), height_text = token(), scale_text = token();
-  long width = 0, height = 0;
-  double scale = 0.0;
+  // Only a regular file is read (a FIFO would hang), with the program's messages for what is missing.
+  const std::string bytes = read_input_file(path, role);
   try {
-    std::size_t used_w = 0, used_h = 0, used_s = 0;
-    width = std::stol(width_text, &used_w);
-    height = std::stol(height_text, &used_h);
-    scale = std::stod(scale_text, &used_s);
-    if (used_w != width_text.size() || used_h != height_text.size() || used_s != scale_text.size()) width = 0;
-  } catch (const std::exception&) {
-    width = 0;
+    const FloatMap map = decode_pfm(bytes, what);
+    return cv::Mat(map.height, map.width, CV_32F, const_cast<float*>(map.values.data())).clone();
+  } catch (const std::runtime_error& e) {
+    throw RuntimeError(e.what());
   }
-  const std::string header = "'" + magic + " " + width_text + " " + height_text + " " + scale_text + "'";
-  if (width < 1 || height < 1 || !std::isfinite(scale) || scale == 0.0)
-    throw RuntimeError(what + ": bad PFM header " + header +
-                       " (expected 'Pf WIDTH HEIGHT SCALE', a non-zero scale whose sign is the byte order)");
-  if (width > kMaxPfmSide || height > kMaxPfmSide)
-    throw RuntimeError(what + ": PFM header " + header + ": " + width_text + "x" + height_text +
-                       " is too large (at most " + std::to_string(kMaxPfmSide) + " x " + std::to_string(kMaxPfmSide) +
-                       ", the largest image matched)");
-  // Exactly one whitespace byte ends the header: the samples may begin with a byte that looks like one.
-  if (at >= bytes.size() || !std::isspace(bytes[at]))
-    throw RuntimeError(what + ": bad PFM header: no line break after the scale");
-  ++at;
-  const std::size_t expected = static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 4;
-  if (bytes.size() - at < expected)
-    throw RuntimeError(what + ": truncated PFM: " + std::to_string(width) + "x" + std::to_string(height) + " needs " +
-                       std::to_string(expected) + " bytes of samples, the file has " +
-                       std::to_string(bytes.size() - at));
-  const bool little_endian = scale < 0;
-  cv::Mat values(static_cast<int>(height), static_cast<int>(width), CV_32F);
-  for (int y = 0; y < values.rows; ++y) {
-    const unsigned char* src = bytes.data() + at + static_cast<std::size_t>(values.rows - 1 - y) * width * 4;
-    float* dst = values.ptr<float>(y);
-    for (int x = 0; x < values.cols; ++x, src += 4) {
-      const std::uint32_t bits =
-          little_endian ? std::uint32_t{src[0]} | std::uint32_t{src[1]} << 8 | std::uint32_t{src[2]} << 16 |
-                              std::uint32_t{src[3]} << 24
-                        : std::uint32_t{src[3]} | std::uint32_t{src[2]} << 8 | std::uint32_t{src[1]} << 16 |
-                              std::uint32_t{src[0]} << 24;
-      std::memcpy(&dst[x], &bits, 4);
-    }
-  }
-  return values;
 }
 
 // Ground truth in pixels, NaN where unknown: a PFM (value / gt_scale, gt_scale 1 unless given;
@@ -1114,224 +1058,378 @@ StereoParams EvalCommand::resolve_preset(const std::string& name) const {
   return parameters_.resolve();
 }
 
+namespace {
+
+// --- Methods that match a pair ----------------------------------------------------------------------
+
+// A method matching the pairs of one scene (its left image with a right image of each step of the
+// study): a preset through the library, or an OpenCV peer. The one interface of the loop that
+// scores them.
+class PairMethod {
+ public:
+  virtual ~PairMethod() = default;
+  // Matches the scene's left image with `right` (`right_gray`: the same in gray); the disparity in
+  // pixels (not finite where there is none), valid until the next call; `ms`: the frame's time.
+  virtual MapView<const float> match(const cv::Mat& right, const cv::Mat& right_gray, double& ms) = 0;
+  // The confidence of the last match; null data for a method without one.
+  virtual MapView<const float> confidence() const { return {}; }
+  // The colour preview of the last match over the method's range, encoded for `path`.
+  virtual std::vector<std::uint8_t> preview(const std::string& path) const = 0;
+
+  int min_disparity = 0, num_disparities = 0;  // the range it searches
+};
+
+class PresetMethod : public PairMethod {
+ public:
+  PresetMethod(const SceneData& scene, Matcher matcher) : scene_(scene), matcher_(std::move(matcher)) {
+    min_disparity = matcher_.params().min_disparity;
+    num_disparities = matcher_.params().num_disparities;
+  }
+  MapView<const float> match(const cv::Mat& right, const cv::Mat&, double& ms) override {
+    matcher_.compute(image_view(scene_.left), image_view(right));
+    ms = matcher_.timings().back().ms;
+    return matcher_.disparity();
+  }
+  MapView<const float> confidence() const override { return matcher_.confidence(); }
+  std::vector<std::uint8_t> preview(const std::string& path) const override {
+    return encode_preview(matcher_.disparity_q4(), matcher_.invalid_q4(), min_disparity,
+                          matcher_.params().max_disparity(), path);
+  }
+  const Matcher& matcher() const { return matcher_; }
+
+ private:
+  const SceneData& scene_;
+  Matcher matcher_;
+};
+
+class PeerMethod : public PairMethod {
+ public:
+  PeerMethod(const SceneData& scene, Peer peer, int min, int num) : scene_(scene), peer_(std::move(peer)), range_(num) {
+    min_disparity = min;
+    num_disparities = peer_.matcher->getNumDisparities();
+  }
+  MapView<const float> match(const cv::Mat&, const cv::Mat& right_gray, double& ms) override {
+    const auto start = std::chrono::steady_clock::now();
+    estimate_ = peer_disparity(peer_, scene_.left_gray, right_gray);
+    ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    return map_view<float>(estimate_);
+  }
+  std::vector<std::uint8_t> preview(const std::string& path) const override {
+    const auto invalid = static_cast<std::int16_t>((min_disparity - 1) * kDisparityScale);
+    const cv::Mat q4 = to_q4(map_view<float>(estimate_), invalid);
+    return encode_preview(map_view<std::int16_t>(q4), invalid, min_disparity, min_disparity + range_ - 1, path);
+  }
+
+ private:
+  const SceneData& scene_;
+  Peer peer_;
+  int range_;  // the range asked for; OpenCV searches a multiple of 16
+  cv::Mat estimate_;
+};
+
+// --- The units of a run -----------------------------------------------------------------------------
+
+// The preset names of --preset's comma-separated list, each once; UsageError for an empty name.
+std::vector<std::string> preset_list_of(const std::string& text) {
+  std::vector<std::string> names;
+  std::stringstream list(text);
+  for (std::string name; std::getline(list, name, ',');) {
+    name = trim(name);
+    if (name.empty()) throw UsageError("--preset: empty name in the list '" + text + "'");
+    if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
+  }
+  if (names.empty()) throw UsageError("--preset: no preset given");
+  return names;
+}
+
+// The files of --save: SCENE[_METHOD]_{disparity,errors}.png in `dir`.
+struct SavePlan {
+  std::string dir;
+  std::vector<std::string> scene_names;  // file_name_part of each scene's name
+
+  std::string path(const Evaluation& ev, std::size_t scene, std::size_t method, const std::string& what) const {
+    const bool plain = method < ev.preset_count && ev.preset_count == 1;
+    const std::string stem = scene_names[scene] + (plain ? "" : "_" + file_name_part(ev.methods[method].name));
+    return (fs::path(dir) / (stem + "_" + what + ".png")).string();
+  }
+};
+
+// Checks the files of --save before anything is matched: one name per scene, none an input, none
+// the same as another output.
+SavePlan plan_saving(const Evaluation& ev, const std::string& dir, const std::string& json,
+                     const std::vector<std::string>& inputs) {
+  SavePlan plan{dir, {}};
+  for (const SceneData& s : ev.scenes) plan.scene_names.push_back(file_name_part(s.scene.name));
+  if (dir.empty()) return plan;
+  for (std::size_t i = 0; i < ev.scenes.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j)
+      if (plan.scene_names[i] == plan.scene_names[j])
+        throw UsageError("--save: scenes " + in_quotes(ev.scenes[j].scene.folder) + " and " +
+                         in_quotes(ev.scenes[i].scene.folder) + " are both named '" + ev.scenes[i].scene.name +
+                         "': their files would overwrite each other");
+  std::error_code ec;
+  std::vector<std::pair<std::string, std::string>> outputs{{"--json", json}};
+  for (std::size_t i = 0; i < ev.scenes.size(); ++i)
+    for (std::size_t m = 0; m < ev.methods.size(); ++m)
+      for (const char* what : {"disparity", "errors"}) {
+        const std::string path = plan.path(ev, i, m, what);
+        if (fs::is_directory(dir, ec)) check_output_path(path, inputs, "--save file");
+        outputs.push_back({"--save", path});
+      }
+  check_distinct_outputs(outputs);
+  return plan;
+}
+
+// The right image of every step of the study, colour and gray, changed once and matched by every
+// method. The noise's seed depends on the scene only, so it is the same for every method and amount.
+std::pair<std::vector<cv::Mat>, std::vector<cv::Mat>> right_images(const SceneData& s,
+                                                                   const std::vector<RadiometricChange>& steps,
+                                                                   std::uint32_t seed) {
+  std::vector<cv::Mat> right(steps.size()), right_gray(steps.size());
+  for (std::size_t k = 0; k < steps.size(); ++k) {
+    if (steps[k].kind == RadiometricKind::Identity) {
+      right[k] = s.right;
+      right_gray[k] = s.right_gray;
+      continue;
+    }
+    right[k] = s.right.clone();
+    apply_radiometric(steps[k], right[k].data, right[k].cols, right[k].rows,
+                      static_cast<std::ptrdiff_t>(right[k].step[0]), right[k].channels(), seed);
+    right_gray[k] = to_gray(right[k]);
+  }
+  return {right, right_gray};
+}
+
+// What the loop over scenes and methods needs besides the evaluation.
+struct RunContext {
+  const RunFlags* flags = nullptr;
+  int repeat = 1;
+  std::optional<int> min_disparity, num_disparities;  // --min-disparity, --num-disparities when given
+  SavePlan save;
+  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> saved;  // --save: path, bytes
+  Json skipped = Json::array();  // the peers that could not match a scene, and why
+
+  // The range every method searches on a scene: the scene's own, or the flags' where given.
+  std::pair<int, int> range(const SceneData& s) const {
+    return {min_disparity.value_or(s.min_disparity), num_disparities.value_or(s.num_disparities)};
+  }
+  StereoParams params(const Method& m, const SceneData& s) const {
+    StereoParams p = m.params;
+    std::tie(p.min_disparity, p.num_disparities) = range(s);
+    return p;
+  }
+};
+
+// Scores `method` on scene `si` at every step; at the baseline step it is timed (one untimed frame,
+// then `repeat` timed ones) and its files for --save are kept.
+void score_method(Evaluation& ev, std::size_t si, std::size_t mi, PairMethod& method,
+                  const std::vector<cv::Mat>& right, const std::vector<cv::Mat>& right_gray,
+                  const std::function<void(std::size_t)>& detail, RunContext& run) {
+  const SceneData& s = ev.scenes[si];
+  for (std::size_t k = 0; k < ev.steps.size(); ++k) {
+    detail(k);
+    const int frames = k == ev.baseline ? run.repeat + 1 : 1;
+    std::vector<double> frame_ms;
+    MapView<const float> estimate;
+    for (int frame = 0; frame < frames; ++frame) {
+      double ms = 0.0;
+      estimate = method.match(right[k], right_gray[k], ms);
+      if (frame > 0) frame_ms.push_back(ms);
+    }
+    Score& score = ev.results[si][mi][k] = score_estimate(s, estimate, ev.threshold);
+    if (method.confidence().data != nullptr)
+      score.sparsification = sparsification_curve(estimate, map_view<float>(s.ground_truth), method.confidence(),
+                                                  map_view<std::uint8_t>(s.masks[kAll]), 255, ev.threshold);
+    score.min_disparity = method.min_disparity;
+    score.num_disparities = method.num_disparities;
+    if (k != ev.baseline) continue;
+    score.ms = median(frame_ms);
+    if (run.save.dir.empty()) continue;
+    const std::string path = run.save.path(ev, si, mi, "disparity");
+    run.saved.push_back({path, method.preview(path)});
+    run.saved.push_back({run.save.path(ev, si, mi, "errors"), encode_error_map(s, estimate, ev.threshold)});
+  }
+}
+
+// The OpenCV peer of that name searching the range, and why it cannot match the scene ("" if it can).
+std::pair<Peer, std::string> peer_for(const std::string& name, const SceneData& s, std::pair<int, int> range) {
+  Peer peer;
+  for (Peer& p : make_peers(range.first, range.second))
+    if (p.name == name) peer = p;
+  std::string reason = peer_unsupported_reason(peer, s.left.cols);
+  return {peer, reason};
+}
+
+// Scores method mi on scene si at every step: a preset through a Matcher, a peer unless it cannot
+// match the scene (then a note on stderr and in the report).
+void score_scene_method(Evaluation& ev, std::size_t si, std::size_t mi, const std::vector<cv::Mat>& right,
+                        const std::vector<cv::Mat>& right_gray, RunContext& run, Progress& progress) {
+  const SceneData& s = ev.scenes[si];
+  const Method& method = ev.methods[mi];
+  const auto detail = [&](std::size_t k) {
+    std::string text = method.name + " (" + std::to_string(mi + 1) + "/" + std::to_string(ev.methods.size()) + ")";
+    if (ev.steps.size() > 1) text += ", " + ev.steps[k].label();
+    progress.detail(text);
+  };
+  if (!method.peer) {
+    // Every preset scores its confidence map too (box presets make it only when asked).
+    PresetMethod preset(s, run.flags->make_matcher(s.left.cols, s.left.rows, run.params(method, s), false, true));
+    ev.backend = preset.matcher().backend();  // what --backend auto resolved to
+    ev.simd_target = preset.matcher().simd_target();
+    ev.threads = preset.matcher().threads();
+    score_method(ev, si, mi, preset, right, right_gray, detail, run);
+    return;
+  }
+  const auto range = run.range(s);
+  auto [peer, reason] = peer_for(method.name, s, range);
+  if (reason.empty()) {
+    PeerMethod matcher(s, std::move(peer), range.first, range.second);
+    score_method(ev, si, mi, matcher, right, right_gray, detail, run);
+    return;
+  }
+  progress.clear();
+  std::cerr << "mctstereo: note: skipping " << method.name << " on scene " << s.scene.name << ": " << reason << "\n";
+  Json j = Json::object();
+  j.set("scene", s.scene.name);
+  j.set("method", method.name);
+  j.set("reason", reason);
+  run.skipped.push_back(std::move(j));
+  for (Score& score : ev.results[si][mi]) score.skip_reason = reason;
+}
+
+// Matches and scores every scene with every method at every step of the study.
+void score_scenes(Evaluation& ev, RunContext& run, bool quiet) {
+  ev.results.assign(ev.scenes.size(),
+                    std::vector<std::vector<Score>>(ev.methods.size(), std::vector<Score>(ev.steps.size())));
+  Progress progress(!quiet);
+  for (std::size_t si = 0; si < ev.scenes.size(); ++si) {
+    const SceneData& s = ev.scenes[si];
+    progress.scene("scene " + std::to_string(si + 1) + "/" + std::to_string(ev.scenes.size()) + " " + s.scene.name +
+                   " (" + size_text(s.left.size()) + ", disparities " + std::to_string(s.min_disparity) + ".." +
+                   std::to_string(s.min_disparity + s.num_disparities - 1) + ")");
+    const auto [right, right_gray] = right_images(s, ev.steps, static_cast<std::uint32_t>(1 + si));
+    for (std::size_t mi = 0; mi < ev.methods.size(); ++mi)
+      score_scene_method(ev, si, mi, right, right_gray, run, progress);
+  }
+  progress.clear();
+}
+
+Json method_json(const Evaluation& ev, std::size_t m) {
+  const std::vector<const Score*> c = ev.column(m, ev.baseline);
+  Json j = Json::object();
+  j.set("method", ev.methods[m].name);
+  j.set("kind", ev.kind(m));
+  if (!ev.methods[m].peer) j.set("parameters", parameters_json(ev.methods[m].params));
+  j.set("colour", uses_colour(ev, m));
+  j.set("scenes", static_cast<int>(std::count_if(c.begin(), c.end(), [](const Score* s) { return s->scored; })));
+  j.set("average", average_json(ev, m, true));
+  j.set("average_percent_bad", optional_number(average_percent_bad(c)));
+  return j;
+}
+
+// The --json report of a finished evaluation; `study`: the exposure study's part, or null.
+Json json_report(const Evaluation& ev, Backend backend, int threads_requested, const Json* study, Json skipped) {
+  const std::vector<Method>& methods = ev.methods;
+  Json report = Json::object();
+  report.set("preset", methods[0].name);
+  Json presets = Json::array(), peers = Json::array();
+  for (const Method& m : methods) (m.peer ? peers : presets).push_back(m.name);
+  report.set("presets", std::move(presets));
+  report.set("peers", std::move(peers));
+  report.set("backend", to_string(backend));
+  report.set("simd_target", ev.simd_target);
+  report.set("threads", ev.threads);
+  report.set("threshold", static_cast<double>(ev.threshold));
+  // The scenes' own ranges replace these two fields unless they were given as flags.
+  report.set("parameters", parameters_json(methods[0].params));
+  Json scenes_json = Json::array();
+  for (std::size_t si = 0; si < ev.scenes.size(); ++si) scenes_json.push_back(scene_json(ev, si));
+  report.set("scenes", std::move(scenes_json));
+  report.set("average", average_json(ev, 0, false));
+  report.set("average_percent_bad", optional_number(average_percent_bad(ev.column(0, ev.baseline))));
+  report.set("input", scene_input(ev));
+  report.set("colour", uses_colour(ev, 0));
+  Json methods_json = Json::array();
+  for (std::size_t m = 0; m < methods.size(); ++m) methods_json.push_back(method_json(ev, m));
+  report.set("methods", std::move(methods_json));
+  if (study != nullptr) report.set("radiometric", *study);
+  report.set("settings", settings_json(ev, threads_requested));
+  report.set("skipped", std::move(skipped));
+  return report;
+}
+
+// Reads and checks every scene under `data` into ev.scenes; the files they read.
+std::vector<std::string> load_scenes(Evaluation& ev, const std::string& data) {
+  const std::vector<fs::path> folders = find_scene_folders(data);
+  if (folders.empty())
+    throw RuntimeError("no scene under " + in_quotes(data) + ": a scene folder holds a scene.txt (see data/README.md)");
+  std::vector<std::string> inputs;
+  for (const fs::path& folder : folders) {
+    ev.scenes.push_back(load_scene(folder));
+    inputs.insert(inputs.end(), ev.scenes.back().files.begin(), ev.scenes.back().files.end());
+  }
+  return inputs;
+}
+
+// The steps of the study (without --radiometric only the unchanged pair) and the baseline among them.
+void set_steps(Evaluation& ev, bool radiometric) {
+  ev.steps = radiometric ? exposure_study_steps() : std::vector<RadiometricChange>{RadiometricChange{}};
+  const auto identity = std::find_if(ev.steps.begin(), ev.steps.end(),
+                                     [](const RadiometricChange& c) { return c.kind == RadiometricKind::Identity; });
+  ev.baseline = identity == ev.steps.end() ? 0 : static_cast<std::size_t>(identity - ev.steps.begin());
+}
+
+// Writes the files of --save, kept until the tables were printed.
+void write_saved(const std::string& dir, const std::vector<std::pair<std::string, std::vector<std::uint8_t>>>& saved) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw RuntimeError("--save: cannot create the folder " + in_quotes(dir) + ": " + ec.message());
+  PendingOutputs outputs;
+  for (const auto& [path, bytes] : saved) outputs.add(path, bytes);
+  outputs.commit();
+}
+
+}  // namespace
+
 void EvalCommand::run() const {
   const Backend backend = run_flags_.parsed_backend();
-
-  // The methods: each preset of the list (every preset by default for the study), then the peers.
-  std::vector<std::string> preset_list;
-  const bool preset_given = command_->get_option("--preset")->count() > 0;
-  if (!preset_given && radiometric_) {
-    preset_list = preset_names();
-  } else {
-    std::stringstream list(parameters_.preset_name());
-    for (std::string name; std::getline(list, name, ',');) {
-      name = trim(name);
-      if (name.empty()) throw UsageError("--preset: empty name in the list '" + parameters_.preset_name() + "'");
-      if (std::find(preset_list.begin(), preset_list.end(), name) == preset_list.end()) preset_list.push_back(name);
-    }
-    if (preset_list.empty()) throw UsageError("--preset: no preset given");
-  }
   Evaluation ev;
   ev.backend = backend;
   ev.threshold = threshold_;
   ev.simd_target = backend == Backend::Reference ? "scalar" : "";
-  std::vector<Method>& methods = ev.methods;
-  for (const std::string& name : preset_list) {
+  // The methods: each preset of the list (every preset by default for the study), then the peers.
+  const bool preset_given = command_->get_option("--preset")->count() > 0;
+  for (const std::string& name :
+       !preset_given && radiometric_ ? preset_names() : preset_list_of(parameters_.preset_name())) {
     const StereoParams params = resolve_preset(name);  // UsageError for an unknown preset
     check_parameters(params);
-    methods.push_back({name, false, params});
+    ev.methods.push_back({name, false, params});
   }
-  const std::size_t preset_count = ev.preset_count = methods.size();
+  ev.preset_count = ev.methods.size();
   if (peers_)
-    for (const Peer& p : make_peers(0, 16)) methods.push_back({p.name, true, {}});
+    for (const Peer& p : make_peers(0, 16)) ev.methods.push_back({p.name, true, {}});
 
   if (!json_.empty()) check_output_path(json_, {}, "JSON report");
-  if (!save_dir_.empty()) {
-    std::error_code ec;
-    if (fs::exists(save_dir_, ec) && !fs::is_directory(save_dir_, ec))
-      throw RuntimeError("--save " + in_quotes(save_dir_) + " is not a folder");
-  }
-
-  const std::vector<fs::path> folders = find_scene_folders(data_);
-  if (folders.empty())
-    throw RuntimeError("no scene under " + in_quotes(data_) + ": a scene folder holds a scene.txt (see data/README.md)");
-
+  std::error_code ec;
+  if (!save_dir_.empty() && fs::exists(save_dir_, ec) && !fs::is_directory(save_dir_, ec))
+    throw RuntimeError("--save " + in_quotes(save_dir_) + " is not a folder");
   // Every scene is read and checked before anything is matched.
-  std::vector<SceneData>& scenes = ev.scenes;
-  std::vector<std::string> inputs;
-  for (const fs::path& folder : folders) {
-    scenes.push_back(load_scene(folder));
-    const SceneData& s = scenes.back();
-    inputs.insert(inputs.end(), s.files.begin(), s.files.end());
-  }
-  // The range every method searches on a scene: the scene's own, or --min-disparity and
-  // --num-disparities where given (every preset holds their values then).
-  const auto range_of = [&](const SceneData& s) {
-    return std::pair{parameters_.given("--min-disparity") ? methods[0].params.min_disparity : s.min_disparity,
-                     parameters_.given("--num-disparities") ? methods[0].params.num_disparities : s.num_disparities};
-  };
-  const auto preset_params = [&](const Method& m, const SceneData& s) {
-    StereoParams params = m.params;
-    std::tie(params.min_disparity, params.num_disparities) = range_of(s);
-    return params;
-  };
-  for (const SceneData& s : scenes)
-    for (std::size_t m = 0; m < preset_count; ++m)
-      check_parameters(preset_params(methods[m], s), s.left.cols, s.left.rows);
-
-  // --save: one name per scene and method, none of them an input.
-  std::vector<std::string> scene_names;
-  for (const SceneData& s : scenes) scene_names.push_back(file_name_part(s.scene.name));
-  const auto save_path = [&](std::size_t scene, std::size_t method, const std::string& what) {
-    const bool plain = method < preset_count && preset_count == 1;
-    const std::string stem = scene_names[scene] + (plain ? "" : "_" + file_name_part(methods[method].name));
-    return (fs::path(save_dir_) / (stem + "_" + what + ".png")).string();
-  };
-  if (!save_dir_.empty()) {
-    for (std::size_t i = 0; i < scenes.size(); ++i)
-      for (std::size_t j = 0; j < i; ++j)
-        if (scene_names[i] == scene_names[j])
-          throw UsageError("--save: scenes " + in_quotes(scenes[j].scene.folder) + " and " +
-                           in_quotes(scenes[i].scene.folder) + " are both named '" + scenes[i].scene.name +
-                           "': their files would overwrite each other");
-    std::error_code ec;
-    std::vector<std::pair<std::string, std::string>> outputs{{"--json", json_}};
-    for (std::size_t i = 0; i < scenes.size(); ++i)
-      for (std::size_t m = 0; m < methods.size(); ++m)
-        for (const char* what : {"disparity", "errors"}) {
-          const std::string path = save_path(i, m, what);
-          if (fs::is_directory(save_dir_, ec)) check_output_path(path, inputs, "--save file");
-          outputs.push_back({"--save", path});
-        }
-    check_distinct_outputs(outputs);
-  }
+  const std::vector<std::string> inputs = load_scenes(ev, data_);
+  RunContext run;
+  run.flags = &run_flags_;
+  run.repeat = repeat_;
+  // --min-disparity and --num-disparities, where given, replace the scenes' ranges (every preset holds them).
+  if (parameters_.given("--min-disparity")) run.min_disparity = ev.methods[0].params.min_disparity;
+  if (parameters_.given("--num-disparities")) run.num_disparities = ev.methods[0].params.num_disparities;
+  for (const SceneData& s : ev.scenes)
+    for (std::size_t m = 0; m < ev.preset_count; ++m)
+      check_parameters(run.params(ev.methods[m], s), s.left.cols, s.left.rows);
+  run.save = plan_saving(ev, save_dir_, json_, inputs);
   if (!json_.empty()) check_output_path(json_, inputs, "JSON report");
-
-  // The steps of the study; without --radiometric only the unchanged pair.
-  ev.steps = radiometric_ ? exposure_study_steps() : std::vector<RadiometricChange>{RadiometricChange{}};
-  const std::vector<RadiometricChange>& steps = ev.steps;
-  const auto identity = std::find_if(steps.begin(), steps.end(),
-                                     [](const RadiometricChange& c) { return c.kind == RadiometricKind::Identity; });
-  ev.baseline = identity == steps.end() ? 0 : static_cast<std::size_t>(identity - steps.begin());
-  const std::size_t baseline_step = ev.baseline;
+  set_steps(ev, radiometric_);
 
   if (run_flags_.threads > 0) cv::setNumThreads(run_flags_.threads);
-  ev.results.assign(scenes.size(),
-                    std::vector<std::vector<Score>>(methods.size(), std::vector<Score>(steps.size())));
-  auto& results = ev.results;
-  std::vector<std::pair<std::string, std::vector<std::uint8_t>>> saved;  // --save: path, bytes
-  Json skipped = Json::array();
-  Progress progress(!quiet_);
-
-  for (std::size_t si = 0; si < scenes.size(); ++si) {
-    const SceneData& s = scenes[si];
-    progress.scene("scene " + std::to_string(si + 1) + "/" + std::to_string(scenes.size()) + " " + s.scene.name +
-                   " (" + size_text(s.left.size()) + ", disparities " + std::to_string(s.min_disparity) + ".." +
-                   std::to_string(s.min_disparity + s.num_disparities - 1) + ")");
-    // The right image of every step, changed once and matched by every method. The seed depends on
-    // the scene only, so the noise of a scene is the same for every method and amount.
-    const std::uint32_t seed = static_cast<std::uint32_t>(1 + si);
-    std::vector<cv::Mat> right(steps.size()), right_gray(steps.size());
-    for (std::size_t k = 0; k < steps.size(); ++k) {
-      if (steps[k].kind == RadiometricKind::Identity) {
-        right[k] = s.right;
-        right_gray[k] = s.right_gray;
-        continue;
-      }
-      right[k] = s.right.clone();
-      apply_radiometric(steps[k], right[k].data, right[k].cols, right[k].rows,
-                        static_cast<std::ptrdiff_t>(right[k].step[0]), right[k].channels(), seed);
-      right_gray[k] = to_gray(right[k]);
-    }
-
-    for (std::size_t mi = 0; mi < methods.size(); ++mi) {
-      const Method& method = methods[mi];
-      const auto detail = [&](std::size_t k) {
-        std::string text = method.name + " (" + std::to_string(mi + 1) + "/" + std::to_string(methods.size()) + ")";
-        if (steps.size() > 1) text += ", " + steps[k].label();
-        progress.detail(text);
-      };
-      // One untimed frame first at the baseline (page faults, thread start-up), then --repeat timed.
-      const auto frames_of = [&](std::size_t k) { return k == baseline_step ? repeat_ + 1 : 1; };
-      if (!method.peer) {
-        const StereoParams params = preset_params(method, s);
-        // Every preset scores its confidence map too (box presets make it only when asked).
-        Matcher matcher = run_flags_.make_matcher(s.left.cols, s.left.rows, params, false, true);
-        ev.backend = matcher.backend();  // what --backend auto resolved to
-        ev.simd_target = matcher.simd_target();
-        ev.threads = matcher.threads();
-        for (std::size_t k = 0; k < steps.size(); ++k) {
-          detail(k);
-          std::vector<double> frame_ms;
-          for (int frame = 0; frame < frames_of(k); ++frame) {
-            matcher.compute(image_view(s.left), image_view(right[k]));
-            if (frame > 0) frame_ms.push_back(matcher.timings().back().ms);
-          }
-          Score& score = results[si][mi][k] = score_estimate(s, matcher.disparity(), threshold_);
-          if (matcher.confidence().data != nullptr)
-            score.sparsification = sparsification_curve(matcher.disparity(), map_view<float>(s.ground_truth),
-                                                        matcher.confidence(), map_view<std::uint8_t>(s.masks[kAll]),
-                                                        255, threshold_);
-          score.min_disparity = params.min_disparity;
-          score.num_disparities = params.num_disparities;
-          if (k == baseline_step) {
-            score.ms = median(frame_ms);
-            if (!save_dir_.empty()) {
-              const std::string path = save_path(si, mi, "disparity");
-              saved.push_back({path, encode_preview(matcher.disparity_q4(), matcher.invalid_q4(),
-                                                    params.min_disparity, params.max_disparity(), path)});
-              saved.push_back({save_path(si, mi, "errors"), encode_error_map(s, matcher.disparity(), threshold_)});
-            }
-          }
-        }
-      } else {
-        const auto [min_disparity, num_disparities] = range_of(s);
-        Peer peer;
-        for (Peer& p : make_peers(min_disparity, num_disparities))
-          if (p.name == method.name) peer = p;
-        const std::string reason = peer_unsupported_reason(peer, s.left.cols);
-        if (!reason.empty()) {
-          progress.clear();
-          std::cerr << "mctstereo: note: skipping " << method.name << " on scene " << s.scene.name << ": " << reason
-                    << "\n";
-          Json j = Json::object();
-          j.set("scene", s.scene.name);
-          j.set("method", method.name);
-          j.set("reason", reason);
-          skipped.push_back(std::move(j));
-          for (Score& score : results[si][mi]) score.skip_reason = reason;
-          continue;
-        }
-        for (std::size_t k = 0; k < steps.size(); ++k) {
-          detail(k);
-          std::vector<double> frame_ms;
-          cv::Mat estimate;
-          for (int frame = 0; frame < frames_of(k); ++frame) {
-            const auto start = std::chrono::steady_clock::now();
-            estimate = peer_disparity(peer, s.left_gray, right_gray[k]);
-            const auto stop = std::chrono::steady_clock::now();
-            if (frame > 0) frame_ms.push_back(std::chrono::duration<double, std::milli>(stop - start).count());
-          }
-          const MapView<const float> view = map_view<float>(estimate);
-          Score& score = results[si][mi][k] = score_estimate(s, view, threshold_);
-          score.min_disparity = min_disparity;
-          score.num_disparities = peer.matcher->getNumDisparities();
-          if (k == baseline_step) {
-            score.ms = median(frame_ms);
-            if (!save_dir_.empty()) {
-              const auto invalid = static_cast<std::int16_t>((min_disparity - 1) * kDisparityScale);
-              const cv::Mat q4 = to_q4(view, invalid);
-              const std::string path = save_path(si, mi, "disparity");
-              saved.push_back({path, encode_preview(map_view<std::int16_t>(q4), invalid, min_disparity,
-                                                    min_disparity + num_disparities - 1, path)});
-              saved.push_back({save_path(si, mi, "errors"), encode_error_map(s, view, threshold_)});
-            }
-          }
-        }
-      }
-    }
-  }
-  progress.clear();
+  score_scenes(ev, run, quiet_);
 
   print_v2_table(ev);
   print_input(ev);
@@ -1340,55 +1438,10 @@ void EvalCommand::run() const {
   Json study;
   if (radiometric_) study = report_study(ev);
   std::fflush(stdout);
-
-  if (!save_dir_.empty()) {
-    std::error_code ec;
-    fs::create_directories(save_dir_, ec);
-    if (ec) throw RuntimeError("--save: cannot create the folder " + in_quotes(save_dir_) + ": " + ec.message());
-    PendingOutputs outputs;
-    for (const auto& [path, bytes] : saved) outputs.add(path, bytes);
-    outputs.commit();
-  }
-
-  if (!json_.empty()) {
-    Json report = Json::object();
-    report.set("preset", methods[0].name);
-    Json presets = Json::array(), peers = Json::array();
-    for (const Method& m : methods) (m.peer ? peers : presets).push_back(m.name);
-    report.set("presets", std::move(presets));
-    report.set("peers", std::move(peers));
-    report.set("backend", to_string(backend));
-    report.set("simd_target", ev.simd_target);
-    report.set("threads", ev.threads);
-    report.set("threshold", static_cast<double>(threshold_));
-    // The scenes' own ranges replace these two fields unless they were given as flags.
-    report.set("parameters", parameters_json(methods[0].params));
-    Json scenes_json = Json::array();
-    for (std::size_t si = 0; si < scenes.size(); ++si) scenes_json.push_back(scene_json(ev, si));
-    report.set("scenes", std::move(scenes_json));
-    report.set("average", average_json(ev, 0, false));
-    report.set("average_percent_bad", optional_number(average_percent_bad(ev.column(0, ev.baseline))));
-    report.set("input", scene_input(ev));
-    report.set("colour", uses_colour(ev, 0));
-    Json methods_json = Json::array();
-    for (std::size_t m = 0; m < methods.size(); ++m) {
-      const std::vector<const Score*> c = ev.column(m, ev.baseline);
-      Json j = Json::object();
-      j.set("method", methods[m].name);
-      j.set("kind", ev.kind(m));
-      if (!methods[m].peer) j.set("parameters", parameters_json(methods[m].params));
-      j.set("colour", uses_colour(ev, m));
-      j.set("scenes", static_cast<int>(std::count_if(c.begin(), c.end(), [](const Score* s) { return s->scored; })));
-      j.set("average", average_json(ev, m, true));
-      j.set("average_percent_bad", optional_number(average_percent_bad(c)));
-      methods_json.push_back(std::move(j));
-    }
-    report.set("methods", std::move(methods_json));
-    if (radiometric_) report.set("radiometric", std::move(study));
-    report.set("settings", settings_json(ev, run_flags_.threads));
-    report.set("skipped", std::move(skipped));
-    write_json_file(json_, report);
-  }
+  if (!save_dir_.empty()) write_saved(save_dir_, run.saved);
+  if (!json_.empty())
+    write_json_file(json_, json_report(ev, backend, run_flags_.threads, radiometric_ ? &study : nullptr,
+                                       std::move(run.skipped)));
 }
 
 }  // namespace mctstereo::app

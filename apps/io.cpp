@@ -196,24 +196,6 @@ std::string_view to_string(DisparityFormat format) {
   return "?";
 }
 
-std::vector<std::uint8_t> encode_pfm(MapView<const float> map) {
-  const int w = map.width, h = map.height;
-  // Header "Pf" (one channel), size, and a negative scale meaning little-endian samples.
-  const std::string header = "Pf\n" + std::to_string(w) + " " + std::to_string(h) + "\n-1.0\n";
-  std::vector<std::uint8_t> bytes(header.begin(), header.end());
-  bytes.reserve(header.size() + static_cast<std::size_t>(w) * h * 4);
-  for (int y = h - 1; y >= 0; --y) {  // PFM stores the bottom row first
-    const float* row = map.row(y);
-    for (int x = 0; x < w; ++x) {
-      const float v = std::isfinite(row[x]) ? row[x] : kPfmNone;
-      std::uint32_t bits;
-      std::memcpy(&bits, &v, 4);
-      for (int b = 0; b < 4; ++b) bytes.push_back(static_cast<std::uint8_t>(bits >> (8 * b)));
-    }
-  }
-  return bytes;
-}
-
 DisparityFormat disparity_format_for(const std::string& path, const std::string& format_flag) {
   const std::string ext = lower_extension(path);
   const bool known_extension = ext == ".pfm" || ext == ".png";

@@ -61,12 +61,7 @@ void check_format_range(DisparityFormat format, const StereoParams& params, cons
 /// One sentence telling how to read the values of a file of `format` back into pixels.
 std::string describe_format(DisparityFormat format, int min_disparity);
 
-/// What a PFM file holds where there is no value (no disparity, no depth).
-inline constexpr float kPfmNone = std::numeric_limits<float>::infinity();
-
-/// The bytes of a one-channel PFM file of `map`: rows bottom to top, little-endian (scale -1);
-/// every value that is not finite (NaN, +/-inf) is written as kPfmNone.
-std::vector<std::uint8_t> encode_pfm(MapView<const float> map);
+// PFM files: encode_pfm, kPfmNone and decode_pfm are the library's (mctstereo/pfm.hpp).
 
 /// The bytes of a disparity file. `q4` holds 16 x d, with `invalid_q4` where there is no disparity.
 std::vector<std::uint8_t> encode_disparity(MapView<const std::int16_t> q4, std::int16_t invalid_q4,

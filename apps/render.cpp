@@ -4,12 +4,10 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <limits>
@@ -20,6 +18,7 @@
 
 #include "errors.hpp"
 #include "input_files.hpp"
+#include "mctstereo/depth.hpp"
 #include "output_files.hpp"
 #include "statistics.hpp"
 
@@ -44,286 +43,16 @@ constexpr const char* kRenderFooter = R"(Conventions:
   blue (uchar); other properties and elements are skipped.
 )";
 
-struct Cloud {
-  std::vector<float> xyz;
-  std::vector<std::uint8_t> rgb;  // empty without colours
-  std::size_t size() const { return xyz.size() / 3; }
-};
-
-// ---- PLY --------------------------------------------------------------------------------------
-
-enum class PlyType { Int8, UInt8, Int16, UInt16, Int32, UInt32, Float32, Float64 };
-
-std::optional<PlyType> ply_type(const std::string& name) {
-  if (name == "char" || name == "int8") return PlyType::Int8;
-  if (name == "uchar" || name == "uint8") return PlyType::UInt8;
-  if (name == "short" || name == "int16") return PlyType::Int16;
-  if (name == "ushort" || name == "uint16") return PlyType::UInt16;
-  if (name == "int" || name == "int32") return PlyType::Int32;
-  if (name == "uint" || name == "uint32") return PlyType::UInt32;
-  if (name == "float" || name == "float32") return PlyType::Float32;
-  if (name == "double" || name == "float64") return PlyType::Float64;
-  return std::nullopt;
-}
-
-std::size_t type_size(PlyType type) {
-  switch (type) {
-    case PlyType::Int8:
-    case PlyType::UInt8:
-      return 1;
-    case PlyType::Int16:
-    case PlyType::UInt16:
-      return 2;
-    case PlyType::Int32:
-    case PlyType::UInt32:
-    case PlyType::Float32:
-      return 4;
-    case PlyType::Float64:
-      return 8;
-  }
-  return 1;
-}
-
-struct PlyProperty {
-  std::string name;
-  PlyType type = PlyType::Float32;
-  bool is_list = false;
-  PlyType count_type = PlyType::UInt8;  // of a list
-};
-
-struct PlyElement {
-  std::string name;
-  std::int64_t count = 0;
-  std::vector<PlyProperty> properties;
-};
-
-// The values of the body, one at a time, ascii or binary little-endian. Returns false at the end.
-class PlyValues {
- public:
-  PlyValues(const std::string& bytes, std::size_t start, bool ascii) : bytes_(bytes), at_(start), ascii_(ascii) {}
-
-  bool next(PlyType type, double& value) {
-    if (ascii_) return next_text(value);
-    const std::size_t n = type_size(type);
-    if (bytes_.size() - at_ < n) return false;
-    const char* p = bytes_.data() + at_;
-    at_ += n;
-    // Little-endian on every host: assembled byte by byte.
-    std::uint64_t bits = 0;
-    for (std::size_t i = 0; i < n; ++i) bits |= static_cast<std::uint64_t>(static_cast<unsigned char>(p[i])) << (8 * i);
-    switch (type) {
-      case PlyType::Int8:
-        value = static_cast<std::int8_t>(bits);
-        break;
-      case PlyType::UInt8:
-        value = static_cast<std::uint8_t>(bits);
-        break;
-      case PlyType::Int16:
-        value = static_cast<std::int16_t>(bits);
-        break;
-      case PlyType::UInt16:
-        value = static_cast<std::uint16_t>(bits);
-        break;
-      case PlyType::Int32:
-        value = static_cast<std::int32_t>(bits);
-        break;
-      case PlyType::UInt32:
-        value = static_cast<std::uint32_t>(bits);
-        break;
-      case PlyType::Float32: {
-        const std::uint32_t b32 = static_cast<std::uint32_t>(bits);
-        float f;
-        std::memcpy(&f, &b32, sizeof f);
-        value = f;
-        break;
-      }
-      case PlyType::Float64: {
-        double d;
-        std::memcpy(&d, &bits, sizeof d);
-        value = d;
-        break;
-      }
-    }
-    return true;
-  }
-
-  /// The text that failed to read as a number (ascii), for messages; empty at the end of the file.
-  std::string bad_token() const { return bad_token_; }
-
- private:
-  bool next_text(double& value) {
-    while (at_ < bytes_.size() && std::isspace(static_cast<unsigned char>(bytes_[at_]))) ++at_;
-    if (at_ == bytes_.size()) return false;
-    std::size_t end = at_;
-    while (end < bytes_.size() && !std::isspace(static_cast<unsigned char>(bytes_[end]))) ++end;
-    const std::string token = bytes_.substr(at_, end - at_);
-    char* stop = nullptr;
-    value = std::strtod(token.c_str(), &stop);
-    if (stop != token.c_str() + token.size()) {
-      bad_token_ = token;
-      return false;
-    }
-    at_ = end;
-    return true;
-  }
-
-  const std::string& bytes_;
-  std::size_t at_;
-  bool ascii_;
-  std::string bad_token_;
-};
-
-std::uint8_t colour_channel(double value, PlyType type) {
-  // Floating-point colours are in [0, 1]; integer ones in [0, 255] (wider types are clamped).
-  if (type == PlyType::Float32 || type == PlyType::Float64) value *= 255.0;
-  if (!(value > 0.0)) return 0;
-  return static_cast<std::uint8_t>(std::lround(std::min(value, 255.0)));
-}
-
-Cloud read_ply(const std::string& path) {
+// The cloud of a PLY file (mctstereo::read_ply), with the file's name in messages.
+PointCloud read_cloud(const std::string& path) {
   const std::string where = "point cloud " + in_quotes(path);
-  const std::string bytes = read_input_file(path, "point cloud");
-  if (bytes.rfind("ply\n", 0) != 0 && bytes.rfind("ply\r\n", 0) != 0)
-    throw RuntimeError(where + " is not a PLY file (it does not start with 'ply')");
-
-  // The header: lines up to "end_header".
-  std::vector<PlyElement> elements;
-  std::string format;
-  std::size_t at = bytes.find('\n') + 1;
-  bool ended = false;
-  while (!ended) {
-    const std::size_t end = bytes.find('\n', at);
-    if (end == std::string::npos) throw RuntimeError(where + ": the header has no end_header line");
-    std::string line = bytes.substr(at, end - at);
-    at = end + 1;
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    std::istringstream words(line);
-    std::string keyword;
-    words >> keyword;
-    if (keyword == "end_header") {
-      ended = true;
-    } else if (keyword == "format") {
-      std::string version;
-      words >> format >> version;
-      if (format != "ascii" && format != "binary_little_endian")
-        throw RuntimeError(where + " is in the format '" + format +
-                           "': only ascii and binary_little_endian are read (convert it, e.g. with MeshLab)");
-    } else if (keyword == "element") {
-      PlyElement element;
-      if (!(words >> element.name >> element.count) || element.count < 0)
-        throw RuntimeError(where + ": malformed header line '" + line + "'");
-      elements.push_back(element);
-    } else if (keyword == "property") {
-      if (elements.empty()) throw RuntimeError(where + ": property before any element: '" + line + "'");
-      PlyProperty property;
-      std::string type;
-      words >> type;
-      if (type == "list") {
-        std::string count_type, item_type;
-        words >> count_type >> item_type >> property.name;
-        const auto c = ply_type(count_type), i = ply_type(item_type);
-        if (!c || !i) throw RuntimeError(where + ": unknown type in '" + line + "'");
-        if (*c == PlyType::Float32 || *c == PlyType::Float64)
-          throw RuntimeError(where + ": the length of a list must have an integer type: '" + line + "'");
-        property.is_list = true;
-        property.count_type = *c;
-        property.type = *i;
-      } else {
-        words >> property.name;
-        const auto t = ply_type(type);
-        if (!t) throw RuntimeError(where + ": unknown type '" + type + "' in '" + line + "'");
-        property.type = *t;
-      }
-      if (property.name.empty()) throw RuntimeError(where + ": malformed header line '" + line + "'");
-      elements.back().properties.push_back(property);
-    } else if (keyword != "comment" && keyword != "obj_info" && !keyword.empty()) {
-      throw RuntimeError(where + ": unknown header line '" + line + "'");
-    }
+  // Only a regular file is read (a FIFO would hang), with the program's messages for what is missing.
+  std::istringstream in(read_input_file(path, "point cloud"));
+  try {
+    return read_ply(in, where);
+  } catch (const std::runtime_error& e) {
+    throw RuntimeError(e.what());
   }
-  if (format.empty()) throw RuntimeError(where + ": the header has no format line");
-
-  std::size_t vertex_element = elements.size();
-  for (std::size_t e = 0; e < elements.size(); ++e)
-    if (elements[e].name == "vertex") vertex_element = e;
-  if (vertex_element == elements.size()) throw RuntimeError(where + " has no vertex element");
-  const PlyElement& vertices = elements[vertex_element];
-  if (vertices.count == 0) throw RuntimeError(where + " has no vertices");
-
-  // Where x y z and the colours are among the vertex's properties.
-  constexpr int kNone = -1;
-  int index[6] = {kNone, kNone, kNone, kNone, kNone, kNone};
-  const char* names[6] = {"x", "y", "z", "red", "green", "blue"};
-  for (std::size_t p = 0; p < vertices.properties.size(); ++p)
-    for (int k = 0; k < 6; ++k)
-      if (vertices.properties[p].name == names[k]) {
-        if (vertices.properties[p].is_list)
-          throw RuntimeError(where + ": the vertex property " + names[k] + " is a list");
-        index[k] = static_cast<int>(p);
-      }
-  for (int k = 0; k < 3; ++k)
-    if (index[k] == kNone) throw RuntimeError(where + ": the vertices have no property " + names[k]);
-  const bool colours = index[3] != kNone && index[4] != kNone && index[5] != kNone;
-  std::vector<int> role(vertices.properties.size(), kNone);  // which of names[] each property is
-  for (int k = 0; k < 6; ++k)
-    if (index[k] != kNone) role[static_cast<std::size_t>(index[k])] = k;
-
-  PlyValues values(bytes, at, format == "ascii");
-  const auto list_length = [&](double length, const std::string& element, std::int64_t row) {
-    // Each item takes at least a byte: a longer list cannot be in the file.
-    if (!(length >= 0.0 && length <= static_cast<double>(bytes.size())))
-      throw RuntimeError(where + ": a list of " + element + " " + std::to_string(row + 1) + " has the length " +
-                         std::to_string(length));
-    return static_cast<std::int64_t>(length);
-  };
-  const auto truncated = [&](const std::string& element, std::int64_t row, std::int64_t count) {
-    if (!values.bad_token().empty())
-      return RuntimeError(where + ": '" + values.bad_token() + "' in " + element + " " + std::to_string(row + 1) +
-                          " is not a number");
-    return RuntimeError(where + " is truncated: it ends in " + element + " " + std::to_string(row + 1) + " of " +
-                        std::to_string(count));
-  };
-  // Elements before the vertices are read past (a list needs its count).
-  double value = 0;
-  for (std::size_t e = 0; e < vertex_element; ++e)
-    for (std::int64_t row = 0; row < elements[e].count; ++row)
-      for (const PlyProperty& p : elements[e].properties) {
-        if (!values.next(p.is_list ? p.count_type : p.type, value))
-          throw truncated(elements[e].name, row, elements[e].count);
-        const std::int64_t items = p.is_list ? list_length(value, elements[e].name, row) : 0;
-        for (std::int64_t i = 0; i < items; ++i)
-          if (!values.next(p.type, value)) throw truncated(elements[e].name, row, elements[e].count);
-      }
-
-  Cloud cloud;
-  // No more than the file can hold: a huge count in a small file is truncated, not out of memory.
-  const std::size_t plausible = std::min<std::size_t>(static_cast<std::size_t>(vertices.count), bytes.size() - at);
-  cloud.xyz.reserve(3 * plausible);
-  if (colours) cloud.rgb.reserve(3 * plausible);
-  for (std::int64_t row = 0; row < vertices.count; ++row) {
-    double vertex[6] = {};  // x y z red green blue, in any order in the file
-    for (std::size_t p = 0; p < vertices.properties.size(); ++p) {
-      const PlyProperty& property = vertices.properties[p];
-      if (!values.next(property.is_list ? property.count_type : property.type, value))
-        throw truncated("vertex", row, vertices.count);
-      if (property.is_list) {
-        const std::int64_t items = list_length(value, "vertex", row);
-        for (std::int64_t i = 0; i < items; ++i)
-          if (!values.next(property.type, value)) throw truncated("vertex", row, vertices.count);
-      } else if (role[p] != kNone) {
-        vertex[role[p]] = value;
-      }
-    }
-    for (int k = 0; k < 3; ++k)  // beyond the range of float: not a point to draw
-      cloud.xyz.push_back(std::abs(vertex[k]) <= std::numeric_limits<float>::max()
-                              ? static_cast<float>(vertex[k])
-                              : std::numeric_limits<float>::quiet_NaN());
-    if (colours)
-      for (int k = 3; k < 6; ++k) {
-        const PlyType type = vertices.properties[static_cast<std::size_t>(index[k])].type;
-        cloud.rgb.push_back(colour_channel(vertex[k], type));
-      }
-  }
-  return cloud;
 }
 
 // A focal length beyond any camera's: the picture would be one pixel of the cloud.
@@ -440,7 +169,7 @@ void RenderCommand::run() const {
   if (!cv::haveImageWriter(output_))
     throw UsageError("-o " + in_quotes(output_) + ": cannot write an image with this extension (use .png or .jpg)");
 
-  const Cloud cloud = read_ply(cloud_);
+  const PointCloud cloud = read_cloud(cloud_);
   std::vector<std::size_t> finite;
   finite.reserve(cloud.size());
   for (std::size_t i = 0; i < cloud.size(); ++i)

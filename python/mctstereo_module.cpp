@@ -6,11 +6,15 @@
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
 
 #include <cmath>
 #include <cstdint>
+#include <array>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <limits>
 #include <memory>
 #include <mutex>
@@ -18,6 +22,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "mctstereo/mctstereo.hpp"
@@ -209,6 +214,93 @@ void write_cloud(const std::string& path, const PointCloud& cloud, const std::ve
     write_obj(out, cloud, comments);
   out.close();
   if (!out) throw std::runtime_error("cannot write '" + path + "'");
+}
+
+// ---- Files (PFM, PLY) and OpenCV's matrices of a geometry.
+
+std::string quoted(const std::filesystem::path& path) {
+  // Appended piece by piece: "'" + string&& trips a false -Wrestrict warning of GCC 12.
+  std::string text(1, '\'');
+  text += path.string();
+  text += '\'';
+  return text;
+}
+
+std::string read_file(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error("cannot open " + quoted(path));
+  std::string bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  if (in.bad()) throw std::runtime_error("cannot read " + quoted(path));
+  return bytes;
+}
+
+py::array_t<float> float_map_array(const FloatMap& map) {
+  py::array_t<float> out({map.height, map.width});
+  std::memcpy(out.mutable_data(), map.values.data(), map.values.size() * sizeof(float));
+  return out;
+}
+
+py::bytes pfm_bytes(const py::array& map) {
+  const auto values = map_argument<float>(map, "map", "float32");
+  std::vector<std::uint8_t> bytes;
+  {
+    py::gil_scoped_release release;
+    bytes = encode_pfm(map_view(values));
+  }
+  return {reinterpret_cast<const char*>(bytes.data()), bytes.size()};
+}
+
+// A matrix argument of `rows` x `cols` (or as many values flat), as doubles row by row.
+template <std::size_t N>
+std::array<double, N> matrix_argument(const py::object& object, const char* name, int rows, int cols) {
+  const auto a = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(object);
+  if (!a || static_cast<std::size_t>(a.size()) != N || (a.ndim() == 2 && (a.shape(0) != rows || a.shape(1) != cols)) ||
+      a.ndim() > 2)
+    throw py::value_error(std::string(name) + ": expected a " + std::to_string(rows) + " x " + std::to_string(cols) +
+                          " matrix");
+  std::array<double, N> values{};
+  std::memcpy(values.data(), a.data(), sizeof(double) * N);
+  return values;
+}
+
+template <std::size_t N>
+py::array_t<double> matrix_array(const std::array<double, N>& values, int rows, int cols) {
+  py::array_t<double> out({rows, cols});
+  std::memcpy(out.mutable_data(), values.data(), sizeof(double) * N);
+  return out;
+}
+
+void bind_files(py::module_& m) {
+  m.def("encode_pfm", &pfm_bytes, py::arg("map"),
+        "The bytes of a one-channel PFM of a float32 H x W map, as the program writes it (little-endian, bottom row "
+        "first, +INF where the value is not finite)");
+  m.def("write_pfm", [](const std::filesystem::path& path, const py::array& map) {
+        const std::string data = pfm_bytes(map);
+        std::ofstream out(path, std::ios::binary);
+        out.write(data.data(), static_cast<std::streamsize>(data.size()));
+        out.close();
+        if (!out) throw std::runtime_error("cannot write " + quoted(path));
+      }, py::arg("path"), py::arg("map"), "encode_pfm(map) written to path");
+  m.def("decode_pfm", [](const py::bytes& data) { return float_map_array(decode_pfm(std::string_view(data))); },
+        py::arg("data"), "The map of a one-channel PFM's bytes: float32 H x W, top row first; RuntimeError if damaged");
+  m.def("read_pfm", [](const std::filesystem::path& path) { return float_map_array(decode_pfm(read_file(path), quoted(path))); },
+        py::arg("path"), "The map of a one-channel PFM file: float32 H x W, top row first (+INF kept)");
+  m.def("read_ply", [](const std::filesystem::path& path) {
+        std::istringstream in(read_file(path));
+        return read_ply(in, "point cloud " + quoted(path));
+      }, py::arg("path"), "A PointCloud of a PLY file (ascii or binary little-endian; x y z, red green blue)");
+  m.def("geometry_from_projections", [](const py::object& P1, const py::object& P2, const std::string& units) {
+        return geometry_from_projections(matrix_argument<12>(P1, "P1", 3, 4), matrix_argument<12>(P2, "P2", 3, 4), units);
+      }, py::arg("P1"), py::arg("P2"), py::arg("units") = "m",
+      "StereoGeometry of OpenCV's 3 x 4 P1, P2 (stereoRectify); ValueError naming the matrix that gives none");
+  m.def("geometry_from_reprojection", [](const py::object& Q, const std::string& units) {
+        return geometry_from_reprojection(matrix_argument<16>(Q, "Q", 4, 4), units);
+      }, py::arg("Q"), py::arg("units") = "m", "StereoGeometry of OpenCV's 4 x 4 Q; ValueError when it gives none");
+  m.def("projection_matrices", [](const StereoGeometry& g) {
+        return py::make_tuple(matrix_array(left_projection(g), 3, 4), matrix_array(right_projection(g), 3, 4));
+      }, py::arg("geometry"), "(P1, P2) of a geometry, float64 3 x 4, as OpenCV's stereoRectify gives them");
+  m.def("reprojection_matrix", [](const StereoGeometry& g) { return matrix_array(reprojection_matrix(g), 4, 4); },
+        py::arg("geometry"), "Q of a geometry, float64 4 x 4 (reprojectImageTo3D's)");
 }
 
 }  // namespace
@@ -616,4 +708,6 @@ PYBIND11_MODULE(_mctstereo, m) {
       py::arg("max_depth") = std::numeric_limits<double>::infinity(), py::arg("channels") = "bgr",
       "Back-projects every valid pixel of a Q4 map with a depth; colours: the left image (uint8 H x W or "
       "H x W x 3, channels 'bgr' or 'rgb') or None");
+
+  bind_files(m);
 }

@@ -65,6 +65,8 @@ d = matcher.compute(left, right, channels="rgb")
 print(f"{mctstereo.__file__}: valid {100 * np.isfinite(d).mean():.2f} %, median disparity {np.nanmedian(d):.4g} px")
 PY
       )
+      # The batch module is installed with the package (its tests run in the build tree).
+      (cd "$work" && PYTHONPATH="$prefix/$python_dir" "$python" -m mctstereo.batch --help >/dev/null && echo "python3 -m mctstereo.batch --help: ok")
     fi
     ;;
   subdirectory)

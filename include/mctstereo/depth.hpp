@@ -6,9 +6,11 @@
 // baseline. Pixel centres have integer coordinates, as in OpenCV and Middlebury's calib.txt.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <iosfwd>
 #include <limits>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -36,6 +38,42 @@ struct StereoGeometry {
   double depth(double disparity) const;
 };
 
+/// A 3 x 4 projection matrix, row-major: OpenCV's P1 and P2 of a rectified pair (stereoRectify).
+using ProjectionMatrix = std::array<double, 12>;
+/// OpenCV's 4 x 4 reprojection matrix Q (stereoRectify, reprojectImageTo3D), row-major.
+using ReprojectionMatrix = std::array<double, 16>;
+
+/// A matrix that gives no geometry of a left-right rectified pair: which one ("P1", "P2" or "Q")
+/// and what is wrong with it ("has a focal length P1(0,0) = 0 <= 0"); what() is both.
+class GeometryMatrixError : public std::invalid_argument {
+ public:
+  GeometryMatrixError(const std::string& matrix, const std::string& problem)
+      : std::invalid_argument(matrix + " " + problem), matrix_(matrix), problem_(problem) {}
+  const std::string& matrix() const { return matrix_; }
+  const std::string& problem() const { return problem_; }
+
+ private:
+  std::string matrix_, problem_;
+};
+
+/// The geometry of a horizontal rectified pair from its projections
+/// P1 = [f 0 cx 0; 0 f cy 0; 0 0 1 0], P2 = [f 0 cx2 -f B; 0 f cy 0; 0 0 1 0]:
+/// focal = P1(0,0), cx = P1(0,2), cy = P1(1,2), baseline = -P2(0,3) / P2(0,0) in the unit of the
+/// calibration's translation (`units`), doffs = P2(0,2) - P1(0,2). GeometryMatrixError for a focal
+/// length <= 0, a vertical pair (P2(1,3) != 0) or a baseline <= 0 (swapped cameras).
+StereoGeometry geometry_from_projections(const ProjectionMatrix& P1, const ProjectionMatrix& P2,
+                                         const std::string& units = "m");
+/// The same from Q = [1 0 0 -cx; 0 1 0 -cy; 0 0 0 f; 0 0 1/B doffs/B]: GeometryMatrixError for
+/// Q(2,3) <= 0 or Q(3,2) <= 0.
+StereoGeometry geometry_from_reprojection(const ReprojectionMatrix& Q, const std::string& units = "m");
+/// P1 of a geometry: [f 0 cx 0; 0 f cy 0; 0 0 1 0].
+ProjectionMatrix left_projection(const StereoGeometry& geometry);
+/// P2 of a geometry: [f 0 cx + doffs -f B; 0 f cy 0; 0 0 1 0].
+ProjectionMatrix right_projection(const StereoGeometry& geometry);
+/// Q of a geometry: [1 0 0 -cx; 0 1 0 -cy; 0 0 0 f; 0 0 1/B doffs/B]; reprojectImageTo3D of a
+/// disparity d at (x, y) gives the point depth_from_disparity and point_cloud_from_disparity give.
+ReprojectionMatrix reprojection_matrix(const StereoGeometry& geometry);
+
 /// What a depth map holds where no depth is known: NaN (as the float disparity map).
 inline constexpr float kNoDepth = std::numeric_limits<float>::quiet_NaN();
 
@@ -59,10 +97,10 @@ void relative_depth_from_disparity(MapView<const std::int16_t> q4, std::int16_t 
 struct PointCloud {
   std::vector<float> xyz;           ///< X, Y, Z of each point, in `units`
   std::vector<std::uint8_t> rgb;    ///< R, G, B of each point; empty for a cloud without colours
-  std::vector<std::int32_t> pixel;  ///< y * width + x of the left pixel each point comes from
-  std::string units = "m";          ///< the geometry's units (point_cloud_from_disparity sets it)
+  std::vector<std::int32_t> pixel;  ///< y * width + x of the left pixel of each point (empty: read from a file)
+  std::string units = "m";          ///< the geometry's units (point_cloud_from_disparity sets it; "" from read_ply)
 
-  std::size_t size() const { return pixel.size(); }
+  std::size_t size() const { return xyz.size() / 3; }
   bool has_colours() const { return !rgb.empty(); }
   /// Keeps the storage: a cloud reused frame after frame allocates only while it grows.
   void clear();
@@ -81,6 +119,14 @@ void point_cloud_from_disparity(MapView<const std::int16_t> q4, std::int16_t inv
 /// cloud has colours, uchar red green blue; each of `comments` becomes a "comment" line (newlines
 /// are replaced by spaces). Throws std::runtime_error when the stream fails.
 void write_ply(std::ostream& out, const PointCloud& cloud, const std::vector<std::string>& comments = {});
+
+/// Reads a PLY point cloud, ascii or binary_little_endian: the vertex element's x y z (any numeric
+/// type; values beyond float's range become NaN) and red green blue when it has all three (integers
+/// as 0..255, clamped; floats as 0..1); other properties and elements are read past. The cloud has
+/// no `pixel` entries and empty `units`. std::runtime_error naming `name` ("point cloud 'a.ply'",
+/// say) and what is wrong: not a PLY, another format, a malformed header, no vertices or no x, y or
+/// z, a value that is not a number, or a truncated body.
+PointCloud read_ply(std::istream& in, const std::string& name = "the PLY data");
 
 /// Writes `cloud` as Wavefront OBJ, one "v x y z" line per point ("v x y z r g b" with colours in
 /// [0, 1] when the cloud has them), `comments` as "#" lines. Throws std::runtime_error on failure.
