@@ -125,6 +125,35 @@ TEST(SgmAggregate, RecursionKnownAnswer) {
   EXPECT_EQ(right.at(2, 0), 0);
 }
 
+// Adaptive P2 (docs/PIPELINE.md): P2' = max(P1, P2 k / (k + |a - b|)), P2 itself with k = 0.
+TEST(SgmAggregate, AdaptiveP2KnownAnswers) {
+  const SgmPathConfig adaptive{4, 60, 200, 16};
+  EXPECT_EQ(detail::sgm_p2_at(adaptive, 10, 10), 200);
+  EXPECT_EQ(detail::sgm_p2_at(adaptive, 10, 26), 100);      // 200 x 16 / 32
+  EXPECT_EQ(detail::sgm_p2_at(adaptive, 26, 10), 100);      // symmetric
+  EXPECT_EQ(detail::sgm_p2_at(adaptive, 0, 30), 69);        // 3200 / 46, truncated
+  EXPECT_EQ(detail::sgm_p2_at(adaptive, 0, 255), 60);       // 3200 / 271 = 11, raised to P1
+  EXPECT_EQ(detail::sgm_p2_at({4, 60, 200, 0}, 0, 255), 200);  // constant P2
+  // The same floor inside the recursion: a gray step of 255 between two pixels of one row costs a
+  // jump of P1 (not 11) from the left neighbour's best.
+  OwnedVolume o(2, 1, 4, 1);
+  SgmVolume& v = o.v;
+  const std::uint16_t costs[2][4] = {{0, 90, 90, 90}, {90, 90, 90, 0}};
+  for (int x = 0; x < 2; ++x) {
+    v.lo.at(x, 0) = 0;
+    v.count.at(x, 0) = 4;
+    for (int k = 0; k < v.stride; ++k) v.cost_at(x, 0)[k] = k < 4 ? costs[x][k] : kSgmInf;
+  }
+  Plane<std::uint8_t> gray(2, 1);
+  gray.at(0, 0) = 0;
+  gray.at(1, 0) = 255;
+  auto scratch = make_scratch(detail::reference::sgm_scratch_bytes(2, 1, v.stride), 1);
+  detail::reference::sgm_aggregate(gray, adaptive, scratch, v);
+  // Left to right at pixel 1, d = 3: 0 + min(L0(3) = 90, L0(2) + P1 = 150, min L0 + P2' = 0 + 60) - 0 = 60.
+  // Right to left at pixel 1 and both vertical paths: L = C = 0.
+  EXPECT_EQ(v.sum_at(1, 0)[3], 60 + 0 + 0 + 0);
+}
+
 // Everything the stages produce, for comparison.
 struct SgmResult {
   Plane<std::int16_t> lo, count, left, right;
