@@ -428,323 +428,427 @@ StreamCommand::StreamCommand(CLI::App& parent)
   run_flags_.add_to(app);
 }
 
-void StreamCommand::run() const {
-  const StereoParams requested = parameters_.resolve();
-  check_parameters(requested);
-  (void)run_flags_.parsed_backend();
+namespace {
 
-  // Every check of the outputs that needs no input comes first.
-  std::optional<DisparityFormat> format;
-  if (!disparity_.empty()) {
-    check_frame_pattern(disparity_, "--disparity");
-    format = disparity_format_for(disparity_, format_);
-    check_format_range(*format, requested, disparity_);
-  } else if (!format_.empty()) {
-    throw UsageError("--format " + format_ + " applies to --disparity files, and none were asked for");
-  }
-  const bool calibrated = calibration_flags_.given();
+// The flags of one run, as the units below read them.
+struct StreamSettings {
+  std::string disparity, format, depth, preview_video;
+  double max_depth = 0.0;  // 0 = no cut
+  int start = 0, max_frames = 0;
+  bool show = false, quiet = false;
+};
+
+// What the flags ask of the outputs, checked before any input is opened.
+struct OutputPlan {
+  std::optional<DisparityFormat> format;  // per-frame disparity files
   DepthFormat depth_format = DepthFormat::Pfm;
-  if (!depth_.empty()) {
-    check_frame_pattern(depth_, "--depth");
-    depth_format = depth_format_for(depth_);
-    if (depth_format == DepthFormat::PngMillimetres && !calibrated)
-      throw UsageError("--depth " + in_quotes(depth_) +
+  int fourcc = 0;     // of the preview video
+  bool show = false;  // a window (false where there is no display: progress on stderr instead)
+};
+
+OutputPlan plan_outputs(const StreamSettings& s, const StereoParams& requested, bool calibrated) {
+  OutputPlan plan;
+  if (!s.disparity.empty()) {
+    check_frame_pattern(s.disparity, "--disparity");
+    plan.format = disparity_format_for(s.disparity, s.format);
+    check_format_range(*plan.format, requested, s.disparity);
+  } else if (!s.format.empty()) {
+    throw UsageError("--format " + s.format + " applies to --disparity files, and none were asked for");
+  }
+  if (!s.depth.empty()) {
+    check_frame_pattern(s.depth, "--depth");
+    plan.depth_format = depth_format_for(s.depth);
+    if (plan.depth_format == DepthFormat::PngMillimetres && !calibrated)
+      throw UsageError("--depth " + in_quotes(s.depth) +
                        ": a PNG depth map holds millimetres and needs a calibration: give --calib FILE or --focal and "
                        "--baseline (or write relative depth 1/d to .pfm files)");
   }
-  if (max_depth_ > 0.0) {
-    if (depth_.empty()) throw UsageError("--max-depth cuts --depth, which was not given");
+  if (s.max_depth > 0.0) {
+    if (s.depth.empty()) throw UsageError("--max-depth cuts --depth, which was not given");
     if (!calibrated)
       throw UsageError("--max-depth is in the units of the baseline and needs a calibration: give --calib FILE or "
                        "--focal and --baseline");
   }
-  int fourcc = 0;
-  if (!preview_video_.empty()) fourcc = preview_fourcc(preview_video_);
-  check_distinct_outputs({{"--disparity", disparity_}, {"--depth", depth_}, {"--preview-video", preview_video_}});
-  bool show = show_;
-  if (show) {
+  if (!s.preview_video.empty()) plan.fourcc = preview_fourcc(s.preview_video);
+  check_distinct_outputs({{"--disparity", s.disparity}, {"--depth", s.depth}, {"--preview-video", s.preview_video}});
+  plan.show = s.show;
+  if (plan.show) {
     const std::string problem = display_problem();
     if (!problem.empty()) {
       std::cerr << "mctstereo: note: --show: " << problem << "; showing progress on stderr instead\n";
-      show = false;
+      plan.show = false;
     }
   }
+  return plan;
+}
 
-  // OpenCV's own warnings (a backend that did not open a file) would repeat our one-line errors.
-  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
-  const std::unique_ptr<StereoSource> source = open_stereo_source(input_, start_);
-
-  // No output may replace an input: every frame's name is checked now when the length is known,
-  // and again as each frame is written. A per-frame file is renamed into place, which replaces a
-  // name and leaves a file of other names (a hard link) as it was, so comparing canonical names
-  // suffices; the preview video is compared by file as well.
-  std::vector<std::string> inputs = source->input_files();
-  for (const std::string& file : calibration_flags_.files()) inputs.push_back(file);
-  const InputNames input_names(inputs);
-  const int first_index = source->position();
-  const int count = source->frame_count();
-  const int last = max_frames_ > 0 && (count < 0 || first_index + max_frames_ < count) ? first_index + max_frames_
+// No output may replace an input: every frame's name is checked now when the length is known,
+// and again as each frame is written (through the names returned). A per-frame file is renamed
+// into place, which replaces a name and leaves a file of other names (a hard link) as it was, so
+// comparing canonical names suffices; the preview video is compared by file as well.
+InputNames check_output_names(const StreamSettings& s, const StereoSource& source,
+                              const std::vector<std::string>& calibration_files) {
+  std::vector<std::string> inputs = source.input_files();
+  inputs.insert(inputs.end(), calibration_files.begin(), calibration_files.end());
+  InputNames input_names(inputs);
+  const int first_index = source.position();
+  const int count = source.frame_count();
+  const int last = s.max_frames > 0 && (count < 0 || first_index + s.max_frames < count) ? first_index + s.max_frames
                                                                                         : count;
-  for (const auto& [flag, pattern, what] : {std::tuple{"--disparity", &disparity_, "disparity output"},
-                                            std::tuple{"--depth", &depth_, "depth output"}}) {
+  for (const auto& [flag, pattern, what] : {std::tuple{"--disparity", &s.disparity, "disparity output"},
+                                            std::tuple{"--depth", &s.depth, "depth output"}}) {
     if (pattern->empty()) continue;
     check_output_path(frame_path(*pattern, first_index), {}, what);
     for (int index = first_index; index < last; ++index) input_names.check(frame_path(*pattern, index), flag, *pattern);
   }
-  if (!disparity_.empty() && !depth_.empty())
-    check_distinct_outputs({{"--disparity", frame_path(disparity_, first_index)},
-                            {"--depth", frame_path(depth_, first_index)}});  // '%d' and '%1d' name the same files
-  if (!preview_video_.empty()) {
-    check_output_path(preview_video_, inputs, "preview video");
-    (void)regular_output_file(preview_video_, "preview video");
+  if (!s.disparity.empty() && !s.depth.empty())
+    check_distinct_outputs({{"--disparity", frame_path(s.disparity, first_index)},
+                            {"--depth", frame_path(s.depth, first_index)}});  // '%d' and '%1d' name the same files
+  if (!s.preview_video.empty()) {
+    check_output_path(s.preview_video, inputs, "preview video");
+    (void)regular_output_file(s.preview_video, "preview video");
   }
+  return input_names;
+}
 
-  const StopSignals stop_signals;
-  std::vector<FrameSlot> slots(kSlots);
-  FrameSlot& first = slots[0];
-  if (!source->read(first.frame))
-    throw RuntimeError(start_ > 0 ? "--start " + std::to_string(start_) + " leaves no frames of the input"
-                                  : "the input holds no frames");
-  first.index = first_index;
-  const int width = first.frame.left.cols, height = first.frame.left.rows;
-  check_parameters(requested, width, height);
-  // A calibration of the raw cameras: every frame is remapped into the rectified frame, with maps
-  // made once, and the geometry becomes that of the rectified cameras.
-  std::optional<Calibration> calibration =
-      calibration_flags_.resolve(width, height, "frame " + std::to_string(first_index) + " (" +
-                                                    source->describe(first_index) + ")");
+// The geometry of the frames. A calibration of the raw cameras: every frame is remapped into the
+// rectified frame, with maps made once, and the geometry becomes that of the rectified cameras.
+struct StreamGeometry {
+  std::optional<Calibration> calibration;
   std::optional<Rectifier> rectifier;
-  std::string rectified_note;
-  if (calibration && calibration->needs_rectification) {
-    rectifier.emplace(*calibration, width, height);
-    calibration->geometry = rectifier->geometry();
-    rectified_note = ", rectified with " + in_quotes(calibration->source);
+  std::string rectified_note;  // for the summary
+};
+
+StreamGeometry prepare_geometry(const CalibrationFlags& flags, const StreamSettings& s, const OutputPlan& plan,
+                                const StereoSource& source, int first_index, int width, int height) {
+  StreamGeometry g;
+  g.calibration =
+      flags.resolve(width, height, "frame " + std::to_string(first_index) + " (" + source.describe(first_index) + ")");
+  if (g.calibration && g.calibration->needs_rectification) {
+    g.rectifier.emplace(*g.calibration, width, height);
+    g.calibration->geometry = g.rectifier->geometry();
+    g.rectified_note = ", rectified with " + in_quotes(g.calibration->source);
   }
-  if (calibration && !depth_.empty() && depth_format == DepthFormat::PngMillimetres)
-    (void)millimetres_per_unit(calibration->geometry.units);  // a unit a PNG of millimetres cannot convert
-  if (!depth_.empty() && !calibration)
-    std::cerr << "mctstereo: note: no calibration: " << in_quotes(depth_)
+  if (g.calibration && !s.depth.empty() && plan.depth_format == DepthFormat::PngMillimetres)
+    (void)millimetres_per_unit(g.calibration->geometry.units);  // a unit a PNG of millimetres cannot convert
+  if (!s.depth.empty() && !g.calibration)
+    std::cerr << "mctstereo: note: no calibration: " << in_quotes(s.depth)
               << " holds relative depth 1/d; give --calib FILE or --focal and --baseline for depth in units\n";
-  Matcher matcher = run_flags_.make_matcher(width, height, requested);
-  const StereoParams& params = matcher.params();
-  const std::int16_t invalid = matcher.invalid_q4();
-  for (FrameSlot& slot : slots) slot.disparity_q4.create(height, width, CV_16SC1);
+  return g;
+}
 
-  std::optional<PreviewVideo> preview_video;
-  if (!preview_video_.empty())
-    preview_video.emplace(preview_video_, fourcc, source->fps() > 0.0 ? source->fps() : 30.0,
-                          cv::Size(2 * width, height));
-  const char* const kWindow = "mctstereo stream";
-  if (show) cv::namedWindow(kWindow, cv::WINDOW_AUTOSIZE);
+// What a run measured, for the summary line.
+struct StreamTotals {
+  int frames_written = 0;
+  double seconds = 0.0;
+  Samples latency_ms, matching_ms;
+  std::string end_reason;
+};
 
-  // The stages. Capture and matching run on their own threads; writing (and the window, which
-  // GUI toolkits want on the main thread) runs here.
-  BoundedQueue<FrameSlot*> free_slots(kSlots), to_match(kQueueDepth), to_write(kQueueDepth);
-  for (std::size_t i = 1; i < slots.size(); ++i) free_slots.push(&slots[i]);
-  std::mutex error_mutex;
-  std::exception_ptr error;
-  auto fail = [&](std::exception_ptr e) {
-    std::lock_guard lock(error_mutex);
-    if (!error) error = e;
-  };
-  std::atomic<bool> aborted{false};  // an error downstream: stop reading and matching
-  std::atomic<bool> user_stop{false};  // the window was closed, or q or Esc pressed
-  std::string end_reason;  // written by the capture thread before it closes to_match
-  const int max_frames = max_frames_;
+// The frames through capture, matching and writing. Capture and matching run on their own
+// threads; writing (and the window, which GUI toolkits want on the main thread) runs on the
+// caller's. The first slot holds the frame already read.
+class FramePipeline {
+ public:
+  FramePipeline(const StreamSettings& settings, const OutputPlan& plan, const StreamGeometry& geometry,
+                const InputNames& input_names, StereoSource& source, Matcher& matcher, std::vector<FrameSlot>& slots)
+      : s_(settings),
+        plan_(plan),
+        geometry_(geometry),
+        input_names_(input_names),
+        source_(source),
+        matcher_(matcher),
+        slots_(slots),
+        width_(slots[0].frame.left.cols),
+        height_(slots[0].frame.left.rows),
+        free_slots_(kSlots),
+        to_match_(kQueueDepth),
+        to_write_(kQueueDepth),
+        progress_(!settings.quiet && !plan.show) {
+    for (FrameSlot& slot : slots_) slot.disparity_q4.create(height_, width_, CV_16SC1);
+    for (std::size_t i = 1; i < slots_.size(); ++i) free_slots_.push(&slots_[i]);
+    if (!s_.preview_video.empty())
+      preview_video_.emplace(s_.preview_video, plan.fourcc, source.fps() > 0.0 ? source.fps() : 30.0,
+                             cv::Size(2 * width_, height_));
+    if (preview_video_ || plan.show) preview_.create(height_, 2 * width_, CV_8UC3);
+    if (!s_.depth.empty()) depth_.create(height_, width_, CV_32FC1);
+  }
+
+  // Runs the frames to the end of the input, a stop or an error, finishes the preview video and
+  // rethrows the first error.
+  StreamTotals run() {
+    if (plan_.show) cv::namedWindow(kWindow, cv::WINDOW_AUTOSIZE);
+    {
+      // Joined before anything they use goes away, whatever happens here.
+      struct Joiner {
+        std::vector<std::thread> threads;
+        FramePipeline* pipeline;
+        ~Joiner() {
+          pipeline->close_all();
+          for (std::thread& t : threads)
+            if (t.joinable()) t.join();
+        }
+      } joiner{{}, this};
+      started_ = Clock::now();
+      try {
+        joiner.threads.emplace_back([this] { capture(); });
+        joiner.threads.emplace_back([this] { match(); });
+      } catch (const std::system_error& e) {
+        throw RuntimeError(std::string("cannot start the capture and matching threads: ") + e.what() +
+                           " (memory limit?)");
+      }
+      try {
+        while (const std::optional<FrameSlot*> slot = to_write_.pop()) write(**slot);
+      } catch (...) {
+        fail(std::current_exception());
+      }
+    }
+    totals_.seconds = std::chrono::duration<double>(Clock::now() - started_).count();
+    totals_.end_reason = end_reason_;
+    progress_.finish();
+    if (plan_.show) cv::destroyWindow(kWindow);
+    // The frames written before an error make a whole video too; the first failure is the one told.
+    if (preview_video_) {
+      try {
+        preview_video_->finish();
+      } catch (...) {
+        if (!error_) throw;
+      }
+    }
+    if (error_) std::rethrow_exception(error_);
+    return std::move(totals_);
+  }
+
+ private:
+  static constexpr const char* kWindow = "mctstereo stream";
+
+  void fail(std::exception_ptr e) {
+    std::lock_guard lock(error_mutex_);
+    if (!error_) error_ = e;
+  }
+  void close_all() {
+    aborted_.store(true);
+    free_slots_.close();
+    to_match_.close();
+    to_write_.close();
+  }
 
   // The views of a slot that are matched, rectified first when the calibration asks for it.
-  auto prepare = [&](FrameSlot& slot) {
-    if (rectifier) {
-      rectifier->rectify(slot.frame.left, slot.frame.right, slot.left_rectified, slot.right_rectified);
+  void prepare(FrameSlot& slot) {
+    if (geometry_.rectifier) {
+      geometry_.rectifier->rectify(slot.frame.left, slot.frame.right, slot.left_rectified, slot.right_rectified);
       slot.left = &slot.left_rectified;
       slot.right = &slot.right_rectified;
     } else {
       slot.left = &slot.frame.left;
       slot.right = &slot.frame.right;
     }
-  };
+  }
 
-  auto capture = [&] {
+  // Why capture stops before the input ends, or "" to go on.
+  std::string stop_reason(int frames) const {
+    if (s_.max_frames > 0 && frames >= s_.max_frames) return "--max-frames " + std::to_string(s_.max_frames);
+    if (const int signal = g_stop_signal.load(); signal != 0)
+      return signal == SIGINT ? "stopped by SIGINT" : "stopped by SIGTERM";
+    if (user_stop_.load()) return "stopped from the window";
+    return {};
+  }
+
+  // The capture thread: reads frames into free slots until the input ends or a stop.
+  void capture() {
     try {
+      FrameSlot& first = slots_[0];
       prepare(first);
       first.captured = Clock::now();
       int frames = 1;
-      if (to_match.push(&first)) {
+      if (to_match_.push(&first)) {
         for (;;) {
-          if (max_frames > 0 && frames >= max_frames) {
-            end_reason = "--max-frames " + std::to_string(max_frames);
+          if (std::string reason = stop_reason(frames); !reason.empty()) {
+            end_reason_ = std::move(reason);
             break;
           }
-          if (const int signal = g_stop_signal.load(); signal != 0) {
-            end_reason = signal == SIGINT ? "stopped by SIGINT" : "stopped by SIGTERM";
-            break;
-          }
-          if (user_stop.load()) {
-            end_reason = "stopped from the window";
-            break;
-          }
-          if (aborted.load()) break;
-          const std::optional<FrameSlot*> slot = free_slots.pop();
+          if (aborted_.load()) break;
+          const std::optional<FrameSlot*> slot = free_slots_.pop();
           if (!slot) break;
-          const int index = source->position();
-          if (!source->read((*slot)->frame)) {
-            end_reason = "end of input";
+          const int index = source_.position();
+          if (!source_.read((*slot)->frame)) {
+            end_reason_ = "end of input";
             break;
           }
           const cv::Mat& left = (*slot)->frame.left;
-          if (left.cols != width || left.rows != height)
-            throw RuntimeError("frame " + std::to_string(index) + " (" + source->describe(index) + ") is " +
+          if (left.cols != width_ || left.rows != height_)
+            throw RuntimeError("frame " + std::to_string(index) + " (" + source_.describe(index) + ") is " +
                                size_text(left.cols, left.rows) + " but the stream began at " +
-                               size_text(width, height) + ": every frame must have the size of the first");
+                               size_text(width_, height_) + ": every frame must have the size of the first");
           prepare(**slot);
           (*slot)->index = index;
           (*slot)->captured = Clock::now();
           ++frames;
-          if (!to_match.push(*slot)) break;
+          if (!to_match_.push(*slot)) break;
         }
       }
     } catch (...) {
       fail(std::current_exception());
     }
-    to_match.close();
-  };
-
-  auto match = [&] {
-    try {
-      while (const std::optional<FrameSlot*> slot = to_match.pop()) {
-        if (aborted.load()) break;
-        matcher.compute(image_view(*(*slot)->left), image_view(*(*slot)->right));
-        copy_map(matcher.disparity_q4(), (*slot)->disparity_q4);
-        (*slot)->matching_ms = matcher.timings().back().ms;
-        if (!to_write.push(*slot)) break;
-      }
-    } catch (...) {
-      fail(std::current_exception());
-      aborted.store(true);
-      free_slots.close();
-      to_match.close();
-    }
-    to_write.close();
-  };
-
-  Samples latency_ms, matching_ms;
-  int frames_written = 0;
-  Progress progress(!quiet_ && !show);
-  cv::Mat preview, colour;
-  if (preview_video || show) preview.create(height, 2 * width, CV_8UC3);
-  cv::Mat depth;
-  if (!depth_.empty()) depth.create(height, width, CV_32FC1);
-  const MapView<float> depth_view{depth.ptr<float>(), width, height, width};
-  const double max_depth = max_depth_ > 0.0 ? max_depth_ : std::numeric_limits<double>::infinity();
-  Clock::time_point started;
-  {
-    // Joined before anything they use goes away, whatever happens here.
-    struct Joiner {
-      std::vector<std::thread> threads;
-      std::function<void()> close_all;
-      ~Joiner() {
-        close_all();
-        for (std::thread& t : threads)
-          if (t.joinable()) t.join();
-      }
-    } joiner;
-    joiner.close_all = [&] {
-      aborted.store(true);
-      free_slots.close();
-      to_match.close();
-      to_write.close();
-    };
-    started = Clock::now();
-    try {
-      joiner.threads.emplace_back(capture);
-      joiner.threads.emplace_back(match);
-    } catch (const std::system_error& e) {
-      throw RuntimeError(std::string("cannot start the capture and matching threads: ") + e.what() +
-                         " (memory limit?)");
-    }
-    try {
-      while (const std::optional<FrameSlot*> slot = to_write.pop()) {
-        FrameSlot& s = **slot;
-        const MapView<const std::int16_t> q4 = map_view(s.disparity_q4);
-        // The files of a frame appear together.
-        PendingOutputs outputs;
-        if (format) {
-          const std::string path = frame_path(disparity_, s.index);
-          input_names.check(path, "--disparity", disparity_);
-          outputs.add(path, encode_disparity(q4, invalid, params.min_disparity, *format));
-        }
-        if (!depth_.empty()) {
-          const std::string path = frame_path(depth_, s.index);
-          input_names.check(path, "--depth", depth_);
-          if (calibration) depth_from_disparity(q4, invalid, calibration->geometry, depth_view, max_depth);
-          else relative_depth_from_disparity(q4, invalid, depth_view);
-          outputs.add(path, encode_depth(MapView<const float>{depth_view.data, width, height, width},
-                                         calibration ? calibration->geometry.units : "", depth_format));
-        }
-        outputs.commit();
-        if (!preview.empty()) {
-          cv::Mat left_half = preview.colRange(0, width), right_half = preview.colRange(width, 2 * width);
-          if (s.left->channels() == 1) cv::cvtColor(*s.left, left_half, cv::COLOR_GRAY2BGR);
-          else s.left->copyTo(left_half);
-          render_preview(q4, invalid, params.min_disparity, params.max_disparity(), colour);
-          colour.copyTo(right_half);
-          if (preview_video) preview_video->write(preview);
-        }
-        ++frames_written;
-        const double latency = std::chrono::duration<double, std::milli>(Clock::now() - s.captured).count();
-        latency_ms.add(latency);
-        matching_ms.add(s.matching_ms);
-        const double seconds = std::chrono::duration<double>(Clock::now() - started).count();
-        const double fps = seconds > 0.0 ? frames_written / seconds : 0.0;
-        if (show) {
-          cv::putText(preview, fixed(fps, 1) + " fps", cv::Point(8, 24), cv::FONT_HERSHEY_SIMPLEX, 0.7,
-                      cv::Scalar(255, 255, 255), 2);
-          cv::imshow(kWindow, preview);
-          const int key = cv::waitKey(1);
-          if (key == 'q' || key == 27 || cv::getWindowProperty(kWindow, cv::WND_PROP_VISIBLE) < 1.0)
-            user_stop.store(true);
-        }
-        progress.update(frames_written, fps, latency);
-        free_slots.push(&s);
-      }
-    } catch (...) {
-      fail(std::current_exception());
-    }
+    to_match_.close();
   }
-  const double seconds = std::chrono::duration<double>(Clock::now() - started).count();
-  progress.finish();
-  if (show) cv::destroyWindow(kWindow);
-  // The frames written before an error make a whole video too; the first failure is the one told.
-  if (preview_video) {
-    try {
-      preview_video->finish();
-    } catch (...) {
-      if (!error) throw;
-    }
-  }
-  if (error) std::rethrow_exception(error);
 
+  // The matching thread.
+  void match() {
+    try {
+      while (const std::optional<FrameSlot*> slot = to_match_.pop()) {
+        if (aborted_.load()) break;
+        matcher_.compute(image_view(*(*slot)->left), image_view(*(*slot)->right));
+        copy_map(matcher_.disparity_q4(), (*slot)->disparity_q4);
+        (*slot)->matching_ms = matcher_.timings().back().ms;
+        if (!to_write_.push(*slot)) break;
+      }
+    } catch (...) {
+      fail(std::current_exception());
+      aborted_.store(true);
+      free_slots_.close();
+      to_match_.close();
+    }
+    to_write_.close();
+  }
+
+  // The files of one frame (they appear together), its preview, the window and the statistics.
+  void write(FrameSlot& slot) {
+    const MapView<const std::int16_t> q4 = map_view(slot.disparity_q4);
+    const StereoParams& params = matcher_.params();
+    const std::int16_t invalid = matcher_.invalid_q4();
+    PendingOutputs outputs;
+    if (plan_.format) {
+      const std::string path = frame_path(s_.disparity, slot.index);
+      input_names_.check(path, "--disparity", s_.disparity);
+      outputs.add(path, encode_disparity(q4, invalid, params.min_disparity, *plan_.format));
+    }
+    if (!s_.depth.empty()) {
+      const std::string path = frame_path(s_.depth, slot.index);
+      input_names_.check(path, "--depth", s_.depth);
+      const MapView<float> depth{depth_.ptr<float>(), width_, height_, width_};
+      const std::optional<Calibration>& calibration = geometry_.calibration;
+      const double max_depth = s_.max_depth > 0.0 ? s_.max_depth : std::numeric_limits<double>::infinity();
+      if (calibration) depth_from_disparity(q4, invalid, calibration->geometry, depth, max_depth);
+      else relative_depth_from_disparity(q4, invalid, depth);
+      outputs.add(path, encode_depth(MapView<const float>{depth.data, width_, height_, width_},
+                                     calibration ? calibration->geometry.units : "", plan_.depth_format));
+    }
+    outputs.commit();
+    if (!preview_.empty()) {
+      cv::Mat left_half = preview_.colRange(0, width_), right_half = preview_.colRange(width_, 2 * width_);
+      if (slot.left->channels() == 1) cv::cvtColor(*slot.left, left_half, cv::COLOR_GRAY2BGR);
+      else slot.left->copyTo(left_half);
+      render_preview(q4, invalid, params.min_disparity, params.max_disparity(), colour_);
+      colour_.copyTo(right_half);
+      if (preview_video_) preview_video_->write(preview_);
+    }
+    ++totals_.frames_written;
+    const double latency = std::chrono::duration<double, std::milli>(Clock::now() - slot.captured).count();
+    totals_.latency_ms.add(latency);
+    totals_.matching_ms.add(slot.matching_ms);
+    const double seconds = std::chrono::duration<double>(Clock::now() - started_).count();
+    const double fps = seconds > 0.0 ? totals_.frames_written / seconds : 0.0;
+    if (plan_.show) show(fps);
+    progress_.update(totals_.frames_written, fps, latency);
+    free_slots_.push(&slot);
+  }
+
+  void show(double fps) {
+    cv::putText(preview_, fixed(fps, 1) + " fps", cv::Point(8, 24), cv::FONT_HERSHEY_SIMPLEX, 0.7,
+                cv::Scalar(255, 255, 255), 2);
+    cv::imshow(kWindow, preview_);
+    const int key = cv::waitKey(1);
+    if (key == 'q' || key == 27 || cv::getWindowProperty(kWindow, cv::WND_PROP_VISIBLE) < 1.0) user_stop_.store(true);
+  }
+
+  const StreamSettings& s_;
+  const OutputPlan& plan_;
+  const StreamGeometry& geometry_;
+  const InputNames& input_names_;
+  StereoSource& source_;
+  Matcher& matcher_;
+  std::vector<FrameSlot>& slots_;
+  const int width_, height_;
+  BoundedQueue<FrameSlot*> free_slots_, to_match_, to_write_;
+  std::mutex error_mutex_;
+  std::exception_ptr error_;
+  std::atomic<bool> aborted_{false};    // an error downstream: stop reading and matching
+  std::atomic<bool> user_stop_{false};  // the window was closed, or q or Esc pressed
+  std::string end_reason_;              // written by the capture thread before it closes to_match_
+  std::optional<PreviewVideo> preview_video_;
+  cv::Mat preview_, colour_, depth_;
+  Progress progress_;
+  Clock::time_point started_;
+  StreamTotals totals_;
+};
+
+// The summary line on stdout.
+void print_summary(const StreamSettings& s, const OutputPlan& plan, const StreamGeometry& geometry,
+                   const StreamTotals& totals, const StereoSource& source, const Matcher& matcher,
+                   const std::string& preset_name) {
+  const StereoParams& params = matcher.params();
+  const int frames = totals.frames_written;
   std::string wrote;
-  if (format)
-    wrote += "; wrote " + std::to_string(frames_written) + " disparity files " + in_quotes(disparity_) + " (" +
-             describe_format(*format, params.min_disparity) + ")";
-  if (!depth_.empty())
-    wrote += (wrote.empty() ? "; wrote " : ", ") + std::to_string(frames_written) + " depth files " +
-             in_quotes(depth_) +
+  if (plan.format)
+    wrote += "; wrote " + std::to_string(frames) + " disparity files " + in_quotes(s.disparity) + " (" +
+             describe_format(*plan.format, params.min_disparity) + ")";
+  if (!s.depth.empty()) {
+    const std::optional<Calibration>& calibration = geometry.calibration;
+    wrote += (wrote.empty() ? "; wrote " : ", ") + std::to_string(frames) + " depth files " + in_quotes(s.depth) +
              (!calibration ? " (relative depth 1/d PFM, +INF = none)"
-              : depth_format == DepthFormat::Pfm ? " (depth PFM, " + calibration->geometry.units + ", +INF = none)"
-                                                 : std::string(" (depth 16-bit PNG, mm, 0 = none)"));
-  if (!preview_video_.empty())
-    wrote += (wrote.empty() ? "; wrote " : ", ") + std::string("preview video ") + in_quotes(preview_video_) +
+              : plan.depth_format == DepthFormat::Pfm
+                  ? " (depth PFM, " + calibration->geometry.units + ", +INF = none)"
+                  : std::string(" (depth 16-bit PNG, mm, 0 = none)"));
+  }
+  if (!s.preview_video.empty())
+    wrote += (wrote.empty() ? "; wrote " : ", ") + std::string("preview video ") + in_quotes(s.preview_video) +
              " (left frame | disparity)";
   const std::string where = matcher.backend() == Backend::OpenCL ? ", device " + matcher.device_name() : "";
-  std::cout << frames_written << " frames " << size_text(width, height) << " from " << source->kind()
-            << ", disparities " << params.min_disparity << ".." << params.max_disparity() << " ("
-            << params.num_disparities << "), preset " << parameters_.preset_name() << rectified_note << ", backend "
-            << to_string(matcher.backend()) << where << "; latency ms: mean " << fixed(latency_ms.mean(), 2)
-            << " p95 " << fixed(percentile(latency_ms.values(), 95.0), 2) << "; matching ms: median "
-            << fixed(median(matching_ms.values()), 2) << "; "
-            << fixed(seconds > 0.0 ? frames_written / seconds : 0.0, 1) << " fps; " << end_reason << wrote << "\n";
+  const int width = matcher.width(), height = matcher.height();
+  std::cout << frames << " frames " << size_text(width, height) << " from " << source.kind() << ", disparities "
+            << params.min_disparity << ".." << params.max_disparity() << " (" << params.num_disparities
+            << "), preset " << preset_name << geometry.rectified_note << ", backend " << to_string(matcher.backend())
+            << where << "; latency ms: mean " << fixed(totals.latency_ms.mean(), 2) << " p95 "
+            << fixed(percentile(totals.latency_ms.values(), 95.0), 2) << "; matching ms: median "
+            << fixed(median(totals.matching_ms.values()), 2) << "; "
+            << fixed(totals.seconds > 0.0 ? frames / totals.seconds : 0.0, 1) << " fps; " << totals.end_reason << wrote
+            << "\n";
+}
+
+}  // namespace
+
+void StreamCommand::run() const {
+  const StereoParams requested = parameters_.resolve();
+  check_parameters(requested);
+  (void)run_flags_.parsed_backend();
+  const StreamSettings settings{disparity_, format_, depth_, preview_video_, max_depth_,
+                                start_,     max_frames_, show_, quiet_};
+
+  // Every check of the outputs that needs no input comes first.
+  const OutputPlan plan = plan_outputs(settings, requested, calibration_flags_.given());
+  // OpenCV's own warnings (a backend that did not open a file) would repeat our one-line errors.
+  cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_ERROR);
+  const std::unique_ptr<StereoSource> source = open_stereo_source(input_, start_);
+  const InputNames input_names = check_output_names(settings, *source, calibration_flags_.files());
+
+  const StopSignals stop_signals;
+  std::vector<FrameSlot> slots(kSlots);
+  FrameSlot& first = slots[0];
+  const int first_index = source->position();
+  if (!source->read(first.frame))
+    throw RuntimeError(start_ > 0 ? "--start " + std::to_string(start_) + " leaves no frames of the input"
+                                  : "the input holds no frames");
+  first.index = first_index;
+  const int width = first.frame.left.cols, height = first.frame.left.rows;
+  check_parameters(requested, width, height);
+  const StreamGeometry geometry =
+      prepare_geometry(calibration_flags_, settings, plan, *source, first_index, width, height);
+  Matcher matcher = run_flags_.make_matcher(width, height, requested);
+
+  FramePipeline pipeline(settings, plan, geometry, input_names, *source, matcher, slots);
+  const StreamTotals totals = pipeline.run();
+  print_summary(settings, plan, geometry, totals, *source, matcher, parameters_.preset_name());
 }
 
 }  // namespace mctstereo::app
