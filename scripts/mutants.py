@@ -96,8 +96,8 @@ MUTANTS = [
     ("eval: the exposure study's conclusion inverted", "apps/eval.cpp",
      "const bool mct_better = groups[1].mean_degradation < groups[0].mean_degradation;",
      "const bool mct_better = !(groups[1].mean_degradation < groups[0].mean_degradation);", "Cli.EvalRadiometric"),
-    ("PFM written top row first", "apps/io.cpp", "for (int y = h - 1; y >= 0; --y) {  // PFM stores the bottom row first",
-     "for (int y = 0; y < h; ++y) {", "Cli|Pfm"),
+    ("PFM written top row first", "src/pfm.cpp", "for (int y = h - 1; y >= 0; --y) {  // PFM stores the bottom row first",
+     "for (int y = 0; y < h; ++y) {", "Pfm|Cli"),
 ]
 
 
