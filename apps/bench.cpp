@@ -80,6 +80,7 @@
 #include "machine_info.hpp"
 #include "options.hpp"
 #include "output_files.hpp"
+#include "pair_method.hpp"
 #include "peers.hpp"
 #include "statistics.hpp"
 
@@ -618,37 +619,38 @@ void record(Timing& t, Group& g, Measurement m, const std::vector<double>& ms) {
   t.measurements.push_back(std::move(m));
 }
 
-void time_peers(Timing& t, Group& g, const std::vector<Peer>& peers, const cv::Mat& left, const cv::Mat& right) {
+// Times OpenCV's matchers (the frames are gray: PairViews' gray views are the same images).
+void time_peers(Timing& t, Group& g, const std::vector<Peer>& peers, const PairViews& views) {
   const FramePlan plan = frame_plan(g.size, false, t.setup.warmup, t.setup.frames);
   for (const Peer& peer : peers) {
     t.progress.step(g.label + peer.name);
-    const int opencv_disparities = peer.matcher->getNumDisparities();
+    PeerMethod method(peer, 0, g.num_disparities);
     if (const std::string reason = peer_unsupported_reason(peer, g.size.width); !reason.empty()) {
-      t.skips.note(peer.name, g.size, opencv_disparities, reason);
+      t.skips.note(peer.name, g.size, method.num_disparities, reason);
       continue;
     }
     try {
-      cv::Mat disparity;
       Measurement m;
       m.method = peer.name;
       m.kind = "opencv";
-      m.num_disparities = opencv_disparities;
+      m.num_disparities = method.num_disparities;
       m.threads = cv::getNumThreads();
       m.warmup = plan.warmup;
-      record(t, g, m, time_frames([&] { peer.matcher->compute(left, right, disparity); }, {}, plan, t.setup.min_time_s));
+      record(t, g, m, time_frames([&] { method.compute(views); }, {}, plan, t.setup.min_time_s));
     } catch (const cv::Exception& e) {
-      t.skips.note(peer.name, g.size, opencv_disparities, "OpenCV: " + e.err);
+      t.skips.note(peer.name, g.size, method.num_disparities, "OpenCV: " + e.err);
     }
   }
 }
 
 // Times one preset on one backend, with the medians of its stages.
-void time_preset(Timing& t, Group& g, const std::string& name, Backend backend, ImageView left, ImageView right) {
+void time_preset(Timing& t, Group& g, const std::string& name, Backend backend, const PairViews& views) {
   const FramePlan plan = frame_plan(g.size, backend == Backend::Reference, t.setup.warmup, t.setup.frames);
   MatcherOptions options;
   options.threads = g.threads_requested;
   options.device = t.setup.device;
-  Matcher matcher = open_backend(backend, t.setup.device, g.size, bench_params(name, g.num_disparities), options);
+  PresetMethod method(open_backend(backend, t.setup.device, g.size, bench_params(name, g.num_disparities), options));
+  const Matcher& matcher = method.matcher();
   std::vector<std::vector<double>> stage_ms;
   const auto collect_stages = [&] {
     const std::vector<StageTime>& times = matcher.timings();
@@ -663,7 +665,7 @@ void time_preset(Timing& t, Group& g, const std::string& name, Backend backend, 
   m.threads = matcher.threads();
   m.warmup = plan.warmup;
   const std::vector<double> ms =
-      time_frames([&] { matcher.compute(left, right); }, collect_stages, plan, t.setup.min_time_s);
+      time_frames([&] { method.compute(views); }, collect_stages, plan, t.setup.min_time_s);
   for (std::size_t s = 0; s < stage_ms.size(); ++s)
     m.stage_median_ms.push_back({matcher.timings()[s].stage, median(stage_ms[s])});
   record(t, g, std::move(m), ms);
@@ -687,7 +689,8 @@ void time_groups(Timing& t, const cv::Mat& left_source, const cv::Mat& right_sou
         g.label = size.text() + ", " + std::to_string(num_disparities) + " disparities, --threads " +
                   std::to_string(g.threads_requested) + ": ";
         cv::setNumThreads(g.threads_requested > 0 ? g.threads_requested : -1);  // -1: OpenCV's default
-        time_peers(t, g, peers, left, right);
+        const PairViews views{left, right, left, right};
+        time_peers(t, g, peers, views);
         for (const Backend backend : setup.backends) {
           if ((backend == Backend::Reference || backend == Backend::OpenCL) && ti > 0) continue;
           for (const std::string& name : setup.presets) {
@@ -696,7 +699,7 @@ void time_groups(Timing& t, const cv::Mat& left_source, const cv::Mat& right_sou
               t.skips.note(name, size, num_disparities, problem);
               continue;
             }
-            time_preset(t, g, name, backend, image_view(left), image_view(right));
+            time_preset(t, g, name, backend, views);
           }
         }
       }

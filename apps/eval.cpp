@@ -83,6 +83,7 @@
 #include "io.hpp"
 #include "machine_info.hpp"
 #include "output_files.hpp"
+#include "pair_method.hpp"
 #include "peers.hpp"
 #include "radiometric.hpp"
 #include "statistics.hpp"
@@ -434,18 +435,6 @@ int v2_number_count(const std::vector<const Score*>& scores) {
   int n = 0;
   for (const Score* s : scores) n += s->scored ? s->v2_numbers() : 0;
   return n;
-}
-
-// Q4 disparities of a float map (NaN = invalid), for encode_preview.
-cv::Mat to_q4(MapView<const float> d, std::int16_t invalid_q4) {
-  cv::Mat q4(d.height, d.width, CV_16S);
-  for (int y = 0; y < d.height; ++y) {
-    const float* src = d.row(y);
-    std::int16_t* dst = q4.ptr<std::int16_t>(y);
-    for (int x = 0; x < d.width; ++x)
-      dst[x] = std::isfinite(src[x]) ? static_cast<std::int16_t>(std::lround(src[x] * kDisparityScale)) : invalid_q4;
-  }
-  return q4;
 }
 
 std::vector<std::uint8_t> encode_error_map(const SceneData& s, MapView<const float> estimate, float threshold) {
@@ -1060,73 +1049,6 @@ StereoParams EvalCommand::resolve_preset(const std::string& name) const {
 
 namespace {
 
-// --- Methods that match a pair ----------------------------------------------------------------------
-
-// A method matching the pairs of one scene (its left image with a right image of each step of the
-// study): a preset through the library, or an OpenCV peer. The one interface of the loop that
-// scores them.
-class PairMethod {
- public:
-  virtual ~PairMethod() = default;
-  // Matches the scene's left image with `right` (`right_gray`: the same in gray); the disparity in
-  // pixels (not finite where there is none), valid until the next call; `ms`: the frame's time.
-  virtual MapView<const float> match(const cv::Mat& right, const cv::Mat& right_gray, double& ms) = 0;
-  // The confidence of the last match; null data for a method without one.
-  virtual MapView<const float> confidence() const { return {}; }
-  // The colour preview of the last match over the method's range, encoded for `path`.
-  virtual std::vector<std::uint8_t> preview(const std::string& path) const = 0;
-
-  int min_disparity = 0, num_disparities = 0;  // the range it searches
-};
-
-class PresetMethod : public PairMethod {
- public:
-  PresetMethod(const SceneData& scene, Matcher matcher) : scene_(scene), matcher_(std::move(matcher)) {
-    min_disparity = matcher_.params().min_disparity;
-    num_disparities = matcher_.params().num_disparities;
-  }
-  MapView<const float> match(const cv::Mat& right, const cv::Mat&, double& ms) override {
-    matcher_.compute(image_view(scene_.left), image_view(right));
-    ms = matcher_.timings().back().ms;
-    return matcher_.disparity();
-  }
-  MapView<const float> confidence() const override { return matcher_.confidence(); }
-  std::vector<std::uint8_t> preview(const std::string& path) const override {
-    return encode_preview(matcher_.disparity_q4(), matcher_.invalid_q4(), min_disparity,
-                          matcher_.params().max_disparity(), path);
-  }
-  const Matcher& matcher() const { return matcher_; }
-
- private:
-  const SceneData& scene_;
-  Matcher matcher_;
-};
-
-class PeerMethod : public PairMethod {
- public:
-  PeerMethod(const SceneData& scene, Peer peer, int min, int num) : scene_(scene), peer_(std::move(peer)), range_(num) {
-    min_disparity = min;
-    num_disparities = peer_.matcher->getNumDisparities();
-  }
-  MapView<const float> match(const cv::Mat&, const cv::Mat& right_gray, double& ms) override {
-    const auto start = std::chrono::steady_clock::now();
-    estimate_ = peer_disparity(peer_, scene_.left_gray, right_gray);
-    ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    return map_view<float>(estimate_);
-  }
-  std::vector<std::uint8_t> preview(const std::string& path) const override {
-    const auto invalid = static_cast<std::int16_t>((min_disparity - 1) * kDisparityScale);
-    const cv::Mat q4 = to_q4(map_view<float>(estimate_), invalid);
-    return encode_preview(map_view<std::int16_t>(q4), invalid, min_disparity, min_disparity + range_ - 1, path);
-  }
-
- private:
-  const SceneData& scene_;
-  Peer peer_;
-  int range_;  // the range asked for; OpenCV searches a multiple of 16
-  cv::Mat estimate_;
-};
-
 // --- The units of a run -----------------------------------------------------------------------------
 
 // The preset names of --preset's comma-separated list, each once; UsageError for an empty name.
@@ -1230,12 +1152,12 @@ void score_method(Evaluation& ev, std::size_t si, std::size_t mi, PairMethod& me
     detail(k);
     const int frames = k == ev.baseline ? run.repeat + 1 : 1;
     std::vector<double> frame_ms;
-    MapView<const float> estimate;
+    const PairViews views{s.left, right[k], s.left_gray, right_gray[k]};
     for (int frame = 0; frame < frames; ++frame) {
-      double ms = 0.0;
-      estimate = method.match(right[k], right_gray[k], ms);
-      if (frame > 0) frame_ms.push_back(ms);
+      method.compute(views);
+      if (frame > 0) frame_ms.push_back(method.frame_ms());
     }
+    const MapView<const float> estimate = method.disparity();
     Score& score = ev.results[si][mi][k] = score_estimate(s, estimate, ev.threshold);
     if (method.confidence().data != nullptr)
       score.sparsification = sparsification_curve(estimate, map_view<float>(s.ground_truth), method.confidence(),
@@ -1273,7 +1195,7 @@ void score_scene_method(Evaluation& ev, std::size_t si, std::size_t mi, const st
   };
   if (!method.peer) {
     // Every preset scores its confidence map too (box presets make it only when asked).
-    PresetMethod preset(s, run.flags->make_matcher(s.left.cols, s.left.rows, run.params(method, s), false, true));
+    PresetMethod preset(run.flags->make_matcher(s.left.cols, s.left.rows, run.params(method, s), false, true));
     ev.backend = preset.matcher().backend();  // what --backend auto resolved to
     ev.simd_target = preset.matcher().simd_target();
     ev.threads = preset.matcher().threads();
@@ -1283,7 +1205,7 @@ void score_scene_method(Evaluation& ev, std::size_t si, std::size_t mi, const st
   const auto range = run.range(s);
   auto [peer, reason] = peer_for(method.name, s, range);
   if (reason.empty()) {
-    PeerMethod matcher(s, std::move(peer), range.first, range.second);
+    PeerMethod matcher(std::move(peer), range.first, range.second);
     score_method(ev, si, mi, matcher, right, right_gray, detail, run);
     return;
   }

@@ -21,10 +21,8 @@ std::string peer_unsupported_reason(const Peer& peer, int width) {
   return "";
 }
 
-cv::Mat peer_disparity(const Peer& peer, const cv::Mat& left_gray, const cv::Mat& right_gray) {
-  cv::Mat fixed;
-  peer.matcher->compute(left_gray, right_gray, fixed);  // CV_16S, 16 x disparity
-  // Both peers mark a pixel without a match below min_disparity (StereoBM: (min - 1) * 16).
+cv::Mat peer_float_disparity(const Peer& peer, const cv::Mat& fixed) {
+  // CV_16S, 16 x disparity. Both peers mark a pixel without a match below min_disparity (StereoBM: (min - 1) * 16).
   const float invalid_below = static_cast<float>(peer.matcher->getMinDisparity());
   cv::Mat out(fixed.size(), CV_32F);
   for (int y = 0; y < fixed.rows; ++y) {

@@ -26,7 +26,7 @@ std::vector<Peer> make_peers(int min_disparity, int num_disparities);
 /// as narrow as its range and crashes when narrower), or "" when it can.
 std::string peer_unsupported_reason(const Peer& peer, int width);
 
-/// The peer's disparity of 8-bit gray frames in pixels (CV_32F), NaN where it found none.
-cv::Mat peer_disparity(const Peer& peer, const cv::Mat& left_gray, const cv::Mat& right_gray);
+/// The peer's disparity in pixels (CV_32F), NaN where it found none, from its CV_16S map `fixed`.
+cv::Mat peer_float_disparity(const Peer& peer, const cv::Mat& fixed);
 
 }  // namespace mctstereo::app
