@@ -198,6 +198,29 @@ TEST_F(Render, DefaultViewFitsTheCloud) {
   const cv::Mat view = cv::imread((folder_ / "view.jpg").string(), cv::IMREAD_COLOR);
   EXPECT_EQ(view.size(), cv::Size(800, 600));
   EXPECT_NE(r.output.find("5 points, 5 in view"), std::string::npos) << r.output;
+  // The picture itself, not the program's count: in a lossless copy every point's colour is drawn
+  // somewhere (the green one may hide behind the red one from this view), and nothing else.
+  ASSERT_EQ(run("render cloud.ply -o view.png").status, 0);
+  const cv::Mat exact = cv::imread((folder_ / "view.png").string(), cv::IMREAD_COLOR);
+  ASSERT_EQ(exact.size(), cv::Size(800, 600));
+  int found = 0;
+  for (const Point& p : kCloud) {
+    const cv::Vec3b colour = bgr(p.r, p.g, p.b);
+    bool drawn = false;
+    for (int y = 0; y < exact.rows && !drawn; ++y)
+      for (int x = 0; x < exact.cols && !drawn; ++x) drawn = exact.at<cv::Vec3b>(y, x) == colour;
+    found += drawn;
+  }
+  EXPECT_GE(found, 4);
+  int other = 0;
+  for (int y = 0; y < exact.rows; ++y)
+    for (int x = 0; x < exact.cols; ++x) {
+      const cv::Vec3b c = exact.at<cv::Vec3b>(y, x);
+      bool known = c == cv::Vec3b(0, 0, 0);
+      for (const Point& p : kCloud) known = known || c == bgr(p.r, p.g, p.b);
+      other += !known;
+    }
+  EXPECT_EQ(other, 0);
 }
 
 TEST_F(Render, BadFilesAndFlagsAreRefused) {
