@@ -453,14 +453,14 @@ HWY_INLINE V16 MarginOf(const WtaState& st, V16 f, V16 l) {
   // In float: 255 (sec - bc) <= 255 x 6480 < 2^24 and sec are exact, and the quotient (<= 255),
   // where it is not an integer, lies at least 1 / sec >= 1 / 6480 below the next one, far more
   // than the rounding error of the division (255 x 2^-24), so truncation gives the integer
-  // quotient. Lanes masked below may divide by 0; their value is never used.
+  // quotient. Lanes masked below (sec = 0) divide by 1 instead, so that no lane makes a NaN.
   const hn::Half<D16> dh;
   const hn::Repartition<std::int32_t, D16> d32;
   const hn::Rebind<float, decltype(d32)> df;
   const auto quotient = [&](V16 b16, V16 s16, auto half) {
     const auto b = hn::PromoteTo(d32, half(b16)), s = hn::PromoteTo(d32, half(s16));
     const auto num = hn::ConvertTo(df, hn::Mul(hn::Set(d32, 255), hn::Sub(s, b)));
-    return hn::DemoteTo(dh, hn::ConvertTo(d32, hn::Div(num, hn::ConvertTo(df, s))));
+    return hn::DemoteTo(dh, hn::ConvertTo(d32, hn::Div(num, hn::ConvertTo(df, hn::Max(s, hn::Set(d32, 1))))));
   };
   const V16 q = hn::Combine(d16, quotient(bc, sec, [&](V16 v) { return hn::UpperHalf(dh, v); }),
                             quotient(bc, sec, [&](V16 v) { return hn::LowerHalf(dh, v); }));
