@@ -8,32 +8,13 @@
 #include <stdexcept>
 #include <vector>
 
+#include "hand_counted_maps.hpp"
 #include "mctstereo/metrics.hpp"
 
 namespace mctstereo {
 namespace {
 
-constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
-constexpr float kInf = std::numeric_limits<float>::infinity();
-
-// A row-major map that owns its values, with a view for the metrics.
-template <typename T>
-struct Map {
-  int width, height;
-  std::vector<T> values;
-  MapView<const T> view() const { return {values.data(), width, height, width}; }
-};
-
-// 4 x 3 maps. Ground truth: one unknown pixel (NaN) at (3, 0).
-const Map<float> kGroundTruth{4, 3, {1, 2, 3, kNaN,  //
-                                     1, 2, 3, 4,     //
-                                     1, 2, 3, 4}};
-// Estimate errors: (1,0) off by exactly 1 (good: the test is > 1), (2,0) off by 1.5 (bad), (3,0)
-// wrong but its ground truth is unknown, (0,1) invalid (NaN), (3,1) invalid (+INF), (1,2) off by
-// 3 (bad), (2,2) off by 0.25 (good).
-const Map<float> kEstimate{4, 3, {1, 3, 4.5f, 9,     //
-                                  kNaN, 2, 3, kInf,  //
-                                  1, 5, 3.25f, 4}};
+using namespace test;  // kNaN, kInf, Map, kGroundTruth, kEstimate
 
 TEST(Metrics, BadPixelsOverTheWholeMaskCountInvalidAsBadAndSkipUnknownTruth) {
   const Map<std::uint8_t> all{4, 3, std::vector<std::uint8_t>(12, 255)};
