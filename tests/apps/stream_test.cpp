@@ -512,8 +512,10 @@ TEST_F(Stream, SigintDeliveredTwiceAtOnceStopsCleanlyWithAWholePreview) {
 }
 
 TEST_F(Stream, ASecondSigintMoreThanASecondLaterEndsAtOnceLeavingNoTemporary) {
-  // Frames slow enough (SGM over 256 disparities at 1280 x 720, one thread) that the frames in
-  // flight outlast the second signal.
+  // The process is stopped (SIGSTOP) between the two signals, so the frames in flight cannot be
+  // finished before the second one arrives however fast the machine is; the monotonic clock the
+  // handler reads runs on while the process is stopped. Frames slow enough (SGM over 256 disparities
+  // at 1280 x 720, one thread) that the first signal is handled while a frame is still in flight.
   cv::Mat left(720, 1280, CV_8UC1), right;
   cv::RNG(7).fill(left, cv::RNG::UNIFORM, 0, 256);
   cv::hconcat(left.colRange(8, 1280), left.colRange(0, 8), right);
@@ -529,7 +531,8 @@ TEST_F(Stream, ASecondSigintMoreThanASecondLaterEndsAtOnceLeavingNoTemporary) {
                               " stream --left l --right r --preset sgm-full --num-disparities 256 --threads 1 "
                               "--preview-video out/p.avi --quiet > summary.txt 2>&1 & pid=$!; "
                               "while [ -z \"$(ls -A out)\" ] && kill -0 $pid 2>/dev/null; do sleep 0.02; done; "
-                              "kill -INT $pid; sleep 1.3; kill -INT $pid; wait $pid; echo $?; }";
+                              "kill -INT $pid; sleep 0.1; kill -STOP $pid; sleep 1.3; kill -INT $pid; kill -CONT $pid; "
+                              "wait $pid; echo $?; }";
   const Result r = run_shell(command);
   EXPECT_EQ(r.output, "130\n") << read_text(folder_ / "summary.txt");
   EXPECT_TRUE(fs::is_empty(folder_ / "out")) << "the temporary of the preview video is removed";
