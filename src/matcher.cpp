@@ -12,6 +12,7 @@
 #include <thread>
 #include <utility>
 
+#include "cpu/parallel.hpp"
 #include "level_plan.hpp"
 #include "stages.hpp"
 #ifdef MCTSTEREO_HAVE_OPENCL
@@ -105,6 +106,7 @@ struct Matcher::Impl {
   MatcherOptions options;
   const StageTable* stages;
   int threads = 1;
+  int host_threads() const { return backend == Backend::Cpu ? threads : 1; }
   bool need_right = false;
   bool want_confidence = false;  // band SGM always, box aggregation when the options ask for it
   std::string notice;  // how Backend::Auto fell back, if it did
@@ -348,26 +350,32 @@ struct Matcher::Impl {
   // The confidence at the output size (pixels of the working scale replicated s x s).
   void write_confidence() {
     const int s = params.working_scale;
-    const bool threaded = backend == Backend::Cpu;
-#pragma omp parallel for schedule(static) if (threaded) num_threads(threads)
-    for (int y = 0; y < height; ++y) {
-      const std::uint8_t* src = confidence_q8.row(std::min(y / s, confidence_q8.height() - 1));
-      float* dst = out_confidence.row(y);
-      for (int x = 0; x < width; ++x) dst[x] = src[std::min(x / s, confidence_q8.width() - 1)] * (1.0f / 255.0f);
-    }
+    detail::cpu::parallel_lines(
+        height,
+        [&](int y0, int y1) {
+          for (int y = y0; y < y1; ++y) {
+            const std::uint8_t* src = confidence_q8.row(std::min(y / s, confidence_q8.height() - 1));
+            float* dst = out_confidence.row(y);
+            for (int x = 0; x < width; ++x) dst[x] = src[std::min(x / s, confidence_q8.width() - 1)] * (1.0f / 255.0f);
+          }
+        },
+        host_threads());
     confidence_current = true;
   }
 
   // Internal maps (kInvalid) to the caller's conventions: Q4 with (dmin - 1) * 16, float with NaN.
   void write_outputs(const Plane<std::int16_t>& result, int v) {
     const std::int16_t invalid = invalid_q4();
-    const bool threaded = backend == Backend::Cpu;
-#pragma omp parallel for schedule(static) if (threaded)
-    for (int y = 0; y < height; ++y) {
-      const std::int16_t* src = result.row(y);
-      std::int16_t* q4 = out_q4[v].row(y);
-      for (int x = 0; x < width; ++x) q4[x] = src[x] == kInvalid ? invalid : src[x];
-    }
+    detail::cpu::parallel_lines(
+        height,
+        [&](int y0, int y1) {
+          for (int y = y0; y < y1; ++y) {
+            const std::int16_t* src = result.row(y);
+            std::int16_t* q4 = out_q4[v].row(y);
+            for (int x = 0; x < width; ++x) q4[x] = src[x] == kInvalid ? invalid : src[x];
+          }
+        },
+        host_threads());
     if (v == 0) {
       float_source = &result;
       float_current = false;
@@ -375,14 +383,17 @@ struct Matcher::Impl {
   }
 
   void write_float() {
-    const bool threaded = backend == Backend::Cpu;
-#pragma omp parallel for schedule(static) if (threaded) num_threads(threads)
-    for (int y = 0; y < height; ++y) {
-      const std::int16_t* src = float_source->row(y);
-      float* f = out_float.row(y);
-      for (int x = 0; x < width; ++x)
-        f[x] = src[x] == kInvalid ? NAN : static_cast<float>(src[x]) * (1.0f / kDisparityScale);
-    }
+    detail::cpu::parallel_lines(
+        height,
+        [&](int y0, int y1) {
+          for (int y = y0; y < y1; ++y) {
+            const std::int16_t* src = float_source->row(y);
+            float* f = out_float.row(y);
+            for (int x = 0; x < width; ++x)
+              f[x] = src[x] == kInvalid ? NAN : static_cast<float>(src[x]) * (1.0f / kDisparityScale);
+          }
+        },
+        host_threads());
     float_current = true;
   }
 
@@ -417,6 +428,14 @@ struct Matcher::Impl {
       return;
     }
 #endif
+    // One parallel region for the whole frame: the stages hand their chunks to the team as tasks
+    // (src/cpu/parallel.hpp), so a descheduled thread stalls no stage.
+    detail::cpu::run_in_frame_region(host_threads(), [&] { run_frame(left, right); });
+  }
+
+  // The recipe of one frame on the host backends (reference, cpu).
+  void run_frame(const ImageView& left, const ImageView& right) {
+    const ImageView* input[2] = {&left, &right};
     for (double& t : slot_ms) t = 0;
     confidence_current = false;
     Stopwatch frame, clock;

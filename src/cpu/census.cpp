@@ -9,6 +9,7 @@
 #include <bit>
 #include <cstring>
 
+#include "cpu/parallel.hpp"
 #include "stages.hpp"
 
 // The codes are assembled byte by byte in memory (see StoreWord), which presumes little-endian
@@ -167,58 +168,59 @@ void CensusImpl(const Plane<std::uint8_t>& image, bool gaussian, CensusCodes& co
   const int w = image.width(), h = image.height();
   const int words = codes.words;
 
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < h; ++y) {
-    const std::uint8_t* rows[kWindow];
-    const std::uint8_t* nb[kCount];
-    for (int j = 0; j < kWindow; ++j) rows[j] = image.row(clamp_index(y - kRadius + j, h));
-    for (int b = 0; b < kCount; ++b) {
-      const int l = b < kCentre ? b : b + 1;
-      nb[b] = rows[l / kWindow] + (l % kWindow - kRadius);
-    }
-    // Blocks whose window leaves the row are computed from a tile of the window rows with the
-    // edge pixels repeated; column kRadius of the tile is the block's first pixel.
-    HWY_ALIGN std::uint8_t tile[kWindow * kTileStride];
-    const std::uint8_t* tile_rows[kWindow];
-    const std::uint8_t* tile_nb[kCount];
-    for (int j = 0; j < kWindow; ++j) tile_rows[j] = tile + j * kTileStride + kRadius;
-    for (int b = 0; b < kCount; ++b) {
-      const int l = b < kCentre ? b : b + 1;
-      tile_nb[b] = tile + (l / kWindow) * kTileStride + l % kWindow;
-    }
-    std::uint32_t* out[3];
-    for (int k = 0; k < words; ++k) out[k] = codes.plane[k].row(y);
-    // A row narrower than a block is written through a stack buffer: a whole block would run past
-    // the row's slack.
-    HWY_ALIGN std::uint32_t narrow[3][kMaxBlock];
-    std::uint32_t* narrow_out[3] = {narrow[0], narrow[1], narrow[2]};
+  parallel_lines(h, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const std::uint8_t* rows[kWindow];
+      const std::uint8_t* nb[kCount];
+      for (int j = 0; j < kWindow; ++j) rows[j] = image.row(clamp_index(y - kRadius + j, h));
+      for (int b = 0; b < kCount; ++b) {
+        const int l = b < kCentre ? b : b + 1;
+        nb[b] = rows[l / kWindow] + (l % kWindow - kRadius);
+      }
+      // Blocks whose window leaves the row are computed from a tile of the window rows with the
+      // edge pixels repeated; column kRadius of the tile is the block's first pixel.
+      HWY_ALIGN std::uint8_t tile[kWindow * kTileStride];
+      const std::uint8_t* tile_rows[kWindow];
+      const std::uint8_t* tile_nb[kCount];
+      for (int j = 0; j < kWindow; ++j) tile_rows[j] = tile + j * kTileStride + kRadius;
+      for (int b = 0; b < kCount; ++b) {
+        const int l = b < kCentre ? b : b + 1;
+        tile_nb[b] = tile + (l / kWindow) * kTileStride + l % kWindow;
+      }
+      std::uint32_t* out[3];
+      for (int k = 0; k < words; ++k) out[k] = codes.plane[k].row(y);
+      // A row narrower than a block is written through a stack buffer: a whole block would run past
+      // the row's slack.
+      HWY_ALIGN std::uint32_t narrow[3][kMaxBlock];
+      std::uint32_t* narrow_out[3] = {narrow[0], narrow[1], narrow[2]};
 
-    for (int x = 0; x < w; x += block) {
-      // The last block overlaps the one before rather than running past the row; the overlapped
-      // pixels get the same codes again.
-      const int bx = w >= block ? std::min(x, w - block) : 0;
-      if (bx >= kRadius && bx + block + kRadius <= w) {
-        CensusBlock<kRadius, kMct>(d8, rows, nb, bx, gaussian, out);
-        continue;
+      for (int x = 0; x < w; x += block) {
+        // The last block overlaps the one before rather than running past the row; the overlapped
+        // pixels get the same codes again.
+        const int bx = w >= block ? std::min(x, w - block) : 0;
+        if (bx >= kRadius && bx + block + kRadius <= w) {
+          CensusBlock<kRadius, kMct>(d8, rows, nb, bx, gaussian, out);
+          continue;
+        }
+        for (int j = 0; j < kWindow; ++j) ClampedCopy(rows[j], w, bx - kRadius, block + 2 * kRadius, tile + j * kTileStride);
+        if (w >= block) {
+          std::uint32_t* shifted[3];
+          for (int k = 0; k < words; ++k) shifted[k] = out[k] + bx;
+          CensusBlock<kRadius, kMct>(d8, tile_rows, tile_nb, 0, gaussian, shifted);
+        } else {
+          CensusBlock<kRadius, kMct>(d8, tile_rows, tile_nb, 0, gaussian, narrow_out);
+          for (int k = 0; k < words; ++k) std::memcpy(out[k], narrow[k], sizeof(std::uint32_t) * w);
+        }
       }
-      for (int j = 0; j < kWindow; ++j) ClampedCopy(rows[j], w, bx - kRadius, block + 2 * kRadius, tile + j * kTileStride);
-      if (w >= block) {
-        std::uint32_t* shifted[3];
-        for (int k = 0; k < words; ++k) shifted[k] = out[k] + bx;
-        CensusBlock<kRadius, kMct>(d8, tile_rows, tile_nb, 0, gaussian, shifted);
-      } else {
-        CensusBlock<kRadius, kMct>(d8, tile_rows, tile_nb, 0, gaussian, narrow_out);
-        for (int k = 0; k < words; ++k) std::memcpy(out[k], narrow[k], sizeof(std::uint32_t) * w);
+      // Replicated columns for the matching stage's window.
+      for (int k = 0; k < words; ++k) {
+        std::uint32_t* r = out[k];
+        const int pad = codes.plane[k].pad();
+        std::fill(r - pad, r, r[0]);
+        std::fill(r + w, r + w + pad, r[w - 1]);
       }
     }
-    // Replicated columns for the matching stage's window.
-    for (int k = 0; k < words; ++k) {
-      std::uint32_t* r = out[k];
-      const int pad = codes.plane[k].pad();
-      std::fill(r - pad, r, r[0]);
-      std::fill(r + w, r + w + pad, r[w - 1]);
-    }
-  }
+  });
 }
 
 void CensusTransform(const Plane<std::uint8_t>& image, const CensusConfig& config, CensusCodes& codes) {

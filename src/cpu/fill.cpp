@@ -15,6 +15,7 @@
 #include <cstring>
 
 #include "cpu/mask_bits-inl.h"
+#include "cpu/parallel.hpp"
 #include "stages.hpp"
 
 HWY_BEFORE_NAMESPACE();
@@ -58,30 +59,31 @@ void FillInvalid(Plane<std::int16_t>& disparity, FillMode mode) {
   const int n = static_cast<int>(hn::Lanes(d));
   const auto invalid = hn::Set(d, kInvalid);
 
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < h; ++y) {
-    std::int16_t* row = disparity.row(y);
-    int start = 0;            // first pixel of the open run
-    std::uint32_t carry = 0;  // whether the pixel before the current word is invalid
-    for (int x0 = 0; x0 < w; x0 += 32) {
-      std::uint32_t bad = 0;
-      for (int x = x0; x < std::min(x0 + 32, w); x += n) bad |= MaskBits(hn::Eq(hn::LoadU(d, row + x), invalid)) << (x - x0);
-      // Bits at and past w (the slack) count as valid pixels that end no run.
-      const std::uint32_t in_row = w - x0 >= 32 ? ~0u : (1u << (w - x0)) - 1;
-      bad &= in_row;
-      const std::uint32_t bad_before = (bad << 1) | carry;  // bit i: pixel x0 + i - 1 is invalid
-      carry = bad >> 31;
-      const std::uint32_t starts = bad & ~bad_before;
-      const std::uint32_t ends = ~bad & bad_before & in_row;
-      // Starts and ends alternate, so each end closes the run of the start before it.
-      for (std::uint32_t events = starts | ends; events != 0; events &= events - 1) {
-        const int b = std::countr_zero(events);
-        if ((starts >> b) & 1u) start = x0 + b;
-        else FillRun(row, start, x0 + b, w, mode);
+  parallel_lines(h, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      std::int16_t* row = disparity.row(y);
+      int start = 0;            // first pixel of the open run
+      std::uint32_t carry = 0;  // whether the pixel before the current word is invalid
+      for (int x0 = 0; x0 < w; x0 += 32) {
+        std::uint32_t bad = 0;
+        for (int x = x0; x < std::min(x0 + 32, w); x += n) bad |= MaskBits(hn::Eq(hn::LoadU(d, row + x), invalid)) << (x - x0);
+        // Bits at and past w (the slack) count as valid pixels that end no run.
+        const std::uint32_t in_row = w - x0 >= 32 ? ~0u : (1u << (w - x0)) - 1;
+        bad &= in_row;
+        const std::uint32_t bad_before = (bad << 1) | carry;  // bit i: pixel x0 + i - 1 is invalid
+        carry = bad >> 31;
+        const std::uint32_t starts = bad & ~bad_before;
+        const std::uint32_t ends = ~bad & bad_before & in_row;
+        // Starts and ends alternate, so each end closes the run of the start before it.
+        for (std::uint32_t events = starts | ends; events != 0; events &= events - 1) {
+          const int b = std::countr_zero(events);
+          if ((starts >> b) & 1u) start = x0 + b;
+          else FillRun(row, start, x0 + b, w, mode);
+        }
       }
+      if (row[w - 1] == kInvalid) FillRun(row, start, w, w, mode);
     }
-    if (row[w - 1] == kInvalid) FillRun(row, start, w, w, mode);
-  }
+  });
 }
 
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE

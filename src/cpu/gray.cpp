@@ -6,6 +6,7 @@
 
 #include <cstring>
 
+#include "cpu/parallel.hpp"
 #include "stages.hpp"
 
 HWY_BEFORE_NAMESPACE();
@@ -44,20 +45,21 @@ void LumaRow(const std::uint8_t* HWY_RESTRICT src, int width, int w0, int w2,
 
 void ToGray(const ImageView& src, Plane<std::uint8_t>& dst) {
   const int w = src.width, h = src.height;
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < h; ++y) {
-    switch (src.format) {
-      case PixelFormat::Gray8:
-        std::memcpy(dst.row(y), src.row(y), static_cast<std::size_t>(w));
-        break;
-      case PixelFormat::Rgb8:
-        LumaRow(src.row(y), w, 77, 29, dst.row(y));
-        break;
-      case PixelFormat::Bgr8:
-        LumaRow(src.row(y), w, 29, 77, dst.row(y));
-        break;
+  parallel_lines(h, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      switch (src.format) {
+        case PixelFormat::Gray8:
+          std::memcpy(dst.row(y), src.row(y), static_cast<std::size_t>(w));
+          break;
+        case PixelFormat::Rgb8:
+          LumaRow(src.row(y), w, 77, 29, dst.row(y));
+          break;
+        case PixelFormat::Bgr8:
+          LumaRow(src.row(y), w, 29, 77, dst.row(y));
+          break;
+      }
     }
-  }
+  });
 }
 
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE

@@ -17,6 +17,7 @@
 #include <cstdint>
 #include <cstdlib>
 
+#include "cpu/parallel.hpp"
 #include "stages.hpp"
 
 HWY_BEFORE_NAMESPACE();
@@ -59,45 +60,46 @@ void LrCheck(const Plane<std::int16_t>& src, const Plane<std::int16_t>& other, i
   const bool vectors = w + slack <= INT16_MAX && threshold_q4 >= 0;
   const int vector_end = vectors ? w / n * n : 0;
 
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < h; ++y) {
-    const std::int16_t* s = src.row(y);
-    const std::int16_t* o = other.row(y);
-    std::int16_t* out = dst.row(y);
-    for (int x = 0; x < vector_end; x += n) {
-      const auto v = hn::LoadU(d, s + x);
-      // (v + 8) >> 4 without the int16 overflow of v + 8: floor(v / 16) + (bit 3 of v).
-      const auto k = hn::Add(hn::ShiftRight<4>(v), hn::And(hn::ShiftRight<3>(v), one));
-      const auto valid = hn::Ne(v, invalid);
-      if (hn::AllFalse(d, valid)) {
-        hn::StoreU(invalid, d, out + x);
-        continue;
+  parallel_lines(h, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const std::int16_t* s = src.row(y);
+      const std::int16_t* o = other.row(y);
+      std::int16_t* out = dst.row(y);
+      for (int x = 0; x < vector_end; x += n) {
+        const auto v = hn::LoadU(d, s + x);
+        // (v + 8) >> 4 without the int16 overflow of v + 8: floor(v / 16) + (bit 3 of v).
+        const auto k = hn::Add(hn::ShiftRight<4>(v), hn::And(hn::ShiftRight<3>(v), one));
+        const auto valid = hn::Ne(v, invalid);
+        if (hn::AllFalse(d, valid)) {
+          hn::StoreU(invalid, d, out + x);
+          continue;
+        }
+        const int kmin = hn::GetLane(hn::MinOfLanes(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MAX))));
+        const int kmax = hn::GetLane(hn::MaxOfLanes(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MIN))));
+        // Lane i of the load for k reads o[x + i + dir k]: from x + dir k, n lanes.
+        const int first = dir < 0 ? x - kmax : x + kmin;
+        const int last = (dir < 0 ? x - kmin : x + kmax) + n;  // one past the last value read
+        if (kmax - kmin >= kMaxSpan || first < 0 || last > w + slack) {
+          LrCheckScalar(s, o, w, x, x + n, dir, threshold_q4, out);
+          continue;
+        }
+        auto u = invalid;
+        for (int kk = kmin; kk <= kmax; ++kk) {
+          const auto shifted = hn::LoadU(d, o + x + dir * kk);
+          u = hn::IfThenElse(hn::Eq(k, hn::Set(d, static_cast<std::int16_t>(kk))), shifted, u);
+        }
+        // The partner must lie in the image: 0 <= x + i + dir k < w. The first half holds for every
+        // valid lane since first >= 0; the loads may reach into the slack past w.
+        const auto xo = hn::Add(hn::Iota(d, x), dir < 0 ? hn::Neg(k) : k);
+        const auto inside = hn::Lt(xo, hn::Set(d, static_cast<std::int16_t>(w)));
+        const auto diff = hn::Sub(hn::BitCast(du, hn::Max(v, u)), hn::BitCast(du, hn::Min(v, u)));
+        const auto close = hn::RebindMask(d, hn::Not(hn::Gt(diff, threshold)));
+        const auto keep = hn::And(hn::And(valid, inside), hn::And(hn::Ne(u, invalid), close));
+        hn::StoreU(hn::IfThenElse(keep, v, invalid), d, out + x);
       }
-      const int kmin = hn::GetLane(hn::MinOfLanes(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MAX))));
-      const int kmax = hn::GetLane(hn::MaxOfLanes(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MIN))));
-      // Lane i of the load for k reads o[x + i + dir k]: from x + dir k, n lanes.
-      const int first = dir < 0 ? x - kmax : x + kmin;
-      const int last = (dir < 0 ? x - kmin : x + kmax) + n;  // one past the last value read
-      if (kmax - kmin >= kMaxSpan || first < 0 || last > w + slack) {
-        LrCheckScalar(s, o, w, x, x + n, dir, threshold_q4, out);
-        continue;
-      }
-      auto u = invalid;
-      for (int kk = kmin; kk <= kmax; ++kk) {
-        const auto shifted = hn::LoadU(d, o + x + dir * kk);
-        u = hn::IfThenElse(hn::Eq(k, hn::Set(d, static_cast<std::int16_t>(kk))), shifted, u);
-      }
-      // The partner must lie in the image: 0 <= x + i + dir k < w. The first half holds for every
-      // valid lane since first >= 0; the loads may reach into the slack past w.
-      const auto xo = hn::Add(hn::Iota(d, x), dir < 0 ? hn::Neg(k) : k);
-      const auto inside = hn::Lt(xo, hn::Set(d, static_cast<std::int16_t>(w)));
-      const auto diff = hn::Sub(hn::BitCast(du, hn::Max(v, u)), hn::BitCast(du, hn::Min(v, u)));
-      const auto close = hn::RebindMask(d, hn::Not(hn::Gt(diff, threshold)));
-      const auto keep = hn::And(hn::And(valid, inside), hn::And(hn::Ne(u, invalid), close));
-      hn::StoreU(hn::IfThenElse(keep, v, invalid), d, out + x);
+      LrCheckScalar(s, o, w, vector_end, w, dir, threshold_q4, out);
     }
-    LrCheckScalar(s, o, w, vector_end, w, dir, threshold_q4, out);
-  }
+  });
 }
 
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE

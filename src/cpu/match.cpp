@@ -54,6 +54,7 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "cpu/parallel.hpp"
 #include "stages.hpp"
 
 namespace mctstereo::detail::cpu::match_layout {
@@ -731,19 +732,23 @@ void match(const CensusCodes& ref, const CensusCodes& other, const SearchRanges&
   const int tile_w = kTile - 2 * (config.shd_window / 2);
   const MatchJob job{&ref, &other, &ranges, &config, &disparity, margin, tile_w, (w + tile_w - 1) / tile_w};
   const int tiles = job.tiles_x * ((h + kRows - 1) / kRows);
-  const int threads = std::max(1, std::min(scratch.threads, omp_get_max_threads()));
   // Each thread's slice starts at the next 64-byte boundary (the aligned loads need it) and must
   // still hold the fixed buffers and one candidate's band: less is a driver bug, not an input.
   const std::size_t usable = scratch.bytes_per_thread < kAlignment ? 0 : scratch.bytes_per_thread - (kAlignment - 1);
   if (usable < kFixedBytes + kBandBytesPerCandidate) std::abort();
-  // Tiles differ in cost (range widths vary with the prior), hence the dynamic schedule; every
-  // tile writes only its own pixels, so the result does not depend on the thread count.
-#pragma omp parallel for schedule(dynamic) num_threads(threads)
-  for (int t = 0; t < tiles; ++t) {
-    std::uint8_t* base = scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread;
-    const auto aligned = (reinterpret_cast<std::uintptr_t>(base) + kAlignment - 1) / kAlignment * kAlignment;
-    HWY_DYNAMIC_DISPATCH(MatchTile)(job, t, reinterpret_cast<std::uint8_t*>(aligned), usable);
-  }
+  if (t_in_frame_region && omp_get_num_threads() > scratch.threads) std::abort();  // a slice per thread
+  // Tiles differ in cost (range widths vary with the prior), hence one tile per chunk, taken as
+  // threads come free; every tile writes only its own pixels, so the result does not depend on
+  // the thread count or the order.
+  parallel_for(
+      tiles, 1,
+      [&](int t0, int t1) {
+        std::uint8_t* base = scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread;
+        const auto aligned = (reinterpret_cast<std::uintptr_t>(base) + kAlignment - 1) / kAlignment * kAlignment;
+        for (int t = t0; t < t1; ++t)
+          HWY_DYNAMIC_DISPATCH(MatchTile)(job, t, reinterpret_cast<std::uint8_t*>(aligned), usable);
+      },
+      scratch.threads);
 }
 
 }  // namespace mctstereo::detail::cpu

@@ -11,6 +11,7 @@
 #include <cstring>
 #include <utility>
 
+#include "cpu/parallel.hpp"
 #include "stages.hpp"
 
 #ifndef MCTSTEREO_CPU_MEDIAN_NETWORKS
@@ -121,42 +122,46 @@ HWY_INLINE V16 Median5x5(const std::int16_t* const* win) {
   return v[kMedian25Result];
 }
 
+// One output row.
 template <int K>
-void MedianRows(const Plane<std::int16_t>& src, Plane<std::int16_t>& dst) {
+void MedianRow(const Plane<std::int16_t>& src, int y, Plane<std::int16_t>& dst) {
   constexpr int R = K / 2;
   const D16 d;
   const int w = src.width(), h = src.height();
   const int n = static_cast<int>(hn::Lanes(d));
   constexpr std::size_t kMaxLanes = hn::MaxLanes(D16());
-
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < h; ++y) {
-    const std::int16_t* rows[K];
-    for (int j = 0; j < K; ++j) rows[j] = src.row(clamp_index(y + j - R, h));
-    std::int16_t* out = dst.row(y);
-    // Vectors that touch a border (or every vector of a narrow image) read a copy of the window
-    // with clamped columns; interior vectors read the rows in place.
-    HWY_ALIGN std::int16_t border[K][kMaxLanes + 2 * R];
-    HWY_ALIGN std::int16_t tail[kMaxLanes];
-    for (int x0 = 0; x0 < w; x0 += n) {
-      const std::int16_t* win[K];
-      if (x0 >= R && x0 + n + R <= w) {
-        for (int j = 0; j < K; ++j) win[j] = rows[j] + x0 - R;
-      } else {
-        for (int j = 0; j < K; ++j) {
-          for (int i = 0; i < n + 2 * R; ++i) border[j][i] = rows[j][clamp_index(x0 - R + i, w)];
-          win[j] = border[j];
-        }
-      }
-      const V16 m = K == 3 ? Median3x3(win) : Median5x5(win);
-      if (x0 + n <= w) {
-        hn::StoreU(m, d, out + x0);
-      } else {
-        hn::Store(m, d, tail);
-        std::memcpy(out + x0, tail, sizeof(std::int16_t) * (w - x0));
+  const std::int16_t* rows[K];
+  for (int j = 0; j < K; ++j) rows[j] = src.row(clamp_index(y + j - R, h));
+  std::int16_t* out = dst.row(y);
+  // Vectors that touch a border (or every vector of a narrow image) read a copy of the window
+  // with clamped columns; interior vectors read the rows in place.
+  HWY_ALIGN std::int16_t border[K][kMaxLanes + 2 * R];
+  HWY_ALIGN std::int16_t tail[kMaxLanes];
+  for (int x0 = 0; x0 < w; x0 += n) {
+    const std::int16_t* win[K];
+    if (x0 >= R && x0 + n + R <= w) {
+      for (int j = 0; j < K; ++j) win[j] = rows[j] + x0 - R;
+    } else {
+      for (int j = 0; j < K; ++j) {
+        for (int i = 0; i < n + 2 * R; ++i) border[j][i] = rows[j][clamp_index(x0 - R + i, w)];
+        win[j] = border[j];
       }
     }
+    const V16 m = K == 3 ? Median3x3(win) : Median5x5(win);
+    if (x0 + n <= w) {
+      hn::StoreU(m, d, out + x0);
+    } else {
+      hn::Store(m, d, tail);
+      std::memcpy(out + x0, tail, sizeof(std::int16_t) * (w - x0));
+    }
   }
+}
+
+template <int K>
+void MedianRows(const Plane<std::int16_t>& src, Plane<std::int16_t>& dst) {
+  parallel_lines(src.height(), [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) MedianRow<K>(src, y, dst);
+  });
 }
 
 void MedianFilter(const Plane<std::int16_t>& src, int k, Plane<std::int16_t>& dst) {

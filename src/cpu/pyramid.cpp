@@ -7,6 +7,7 @@
 
 #include <algorithm>
 
+#include "cpu/parallel.hpp"
 #include "stages.hpp"
 
 HWY_BEFORE_NAMESPACE();
@@ -78,12 +79,13 @@ void PyramidDown(const Plane<std::uint8_t>& src, Plane<std::uint8_t>& dst) {
   const int w = src.width(), h = src.height();
   const int dw = dst.width(), dh = dst.height();
   if (dw == 0 || w == 0) return;
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < dh; ++y) {
-    const std::uint8_t* rows[5];
-    for (int j = 0; j < 5; ++j) rows[j] = src.row(clamp_index(2 * y - 2 + j, h));
-    DownRow(rows, w, dw, dst.row(y));
-  }
+  parallel_lines(dh, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      const std::uint8_t* rows[5];
+      for (int j = 0; j < 5; ++j) rows[j] = src.row(clamp_index(2 * y - 2 + j, h));
+      DownRow(rows, w, dw, dst.row(y));
+    }
+  });
 }
 
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE

@@ -25,6 +25,7 @@
 
 #include <algorithm>
 
+#include "cpu/parallel.hpp"
 #include "stages.hpp"
 
 #ifndef MCTSTEREO_CPU_SGM_AGGREGATE_ONCE
@@ -235,33 +236,46 @@ void AggregateAll(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, 
   const int column_block = block_lines(kColumnBlock, v.width, scratch.threads);
   const int row_blocks = (v.height + row_block - 1) / row_block;
   const int column_blocks = (v.width + column_block - 1) / column_block;
-#pragma omp parallel num_threads(scratch.threads)
-  {
-    auto* buffers = reinterpret_cast<std::uint16_t*>(scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread);
-    // Both horizontal paths of a block of rows, then both vertical ones of a block of columns:
-    // the second path of each pair finds the block's costs and sums still in the L2 cache (a
-    // block of 16 lines of 640 pixels x 16 candidates is 640 KiB of both), so each pair streams
-    // the volume from memory once instead of twice.
-#pragma omp for schedule(dynamic, 1)
-    for (int b = 0; b < row_blocks; ++b) {
-      PathRows<true, kVecs>(gray, c, b * row_block, row_block, +1, buffers, v);
-      PathRows<false, kVecs>(gray, c, b * row_block, row_block, -1, buffers, v);
-    }
-#pragma omp for schedule(dynamic, 1)
-    for (int b = 0; b < column_blocks; ++b) {
-      PathColumns<kVecs>(gray, c, b * column_block, column_block, +1, buffers, v);
-      PathColumns<kVecs>(gray, c, b * column_block, column_block, -1, buffers, v);
-    }
-    // The diagonals (8 paths), line by line.
-    for (int r = 4; r < config.paths; ++r) {
-      const PathLines lines{v.width, v.height, kSgmSteps[r][0], kSgmSteps[r][1]};
-#pragma omp for schedule(dynamic, 4)
-      for (int i = 0; i < lines.count(); ++i) {
-        int x, y;
-        lines.start(i, x, y);
-        PathLine<kVecs>(gray, c, x, y, lines.dx, lines.dy, buffers, v);
-      }
-    }
+  if (t_in_frame_region && omp_get_num_threads() > scratch.threads) std::abort();  // a slice per thread
+  const auto buffers = [&] {
+    return reinterpret_cast<std::uint16_t*>(scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread);
+  };
+  // Both horizontal paths of a block of rows, then both vertical ones of a block of columns:
+  // the second path of each pair finds the block's costs and sums still in the L2 cache (a
+  // block of 16 lines of 640 pixels x 16 candidates is 640 KiB of both), so each pair streams
+  // the volume from memory once instead of twice. Each pass ends before the next starts: the
+  // passes add into the same sums.
+  parallel_for(
+      row_blocks, 1,
+      [&](int b0, int b1) {
+        for (int b = b0; b < b1; ++b) {
+          PathRows<true, kVecs>(gray, c, b * row_block, row_block, +1, buffers(), v);
+          PathRows<false, kVecs>(gray, c, b * row_block, row_block, -1, buffers(), v);
+        }
+      },
+      scratch.threads);
+  parallel_for(
+      column_blocks, 1,
+      [&](int b0, int b1) {
+        for (int b = b0; b < b1; ++b) {
+          PathColumns<kVecs>(gray, c, b * column_block, column_block, +1, buffers(), v);
+          PathColumns<kVecs>(gray, c, b * column_block, column_block, -1, buffers(), v);
+        }
+      },
+      scratch.threads);
+  // The diagonals (8 paths), line by line.
+  for (int r = 4; r < config.paths; ++r) {
+    const PathLines lines{v.width, v.height, kSgmSteps[r][0], kSgmSteps[r][1]};
+    parallel_for(
+        lines.count(), 4,
+        [&](int i0, int i1) {
+          for (int i = i0; i < i1; ++i) {
+            int x, y;
+            lines.start(i, x, y);
+            PathLine<kVecs>(gray, c, x, y, lines.dx, lines.dy, buffers(), v);
+          }
+        },
+        scratch.threads);
   }
 }
 

@@ -24,6 +24,7 @@
 
 #include <algorithm>
 
+#include "cpu/parallel.hpp"
 #include "stages.hpp"
 
 #ifndef MCTSTEREO_CPU_SGM_COSTS_ONCE
@@ -80,15 +81,16 @@ using DU16 = hn::Rebind<std::uint16_t, DU32>;
 
 void MirrorCodes(const CensusCodes& right, SgmVolume& v) {
   const int w = v.width, h = v.height;
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < h; ++y) {
-    for (int k = 0; k < right.words; ++k) {
-      const std::uint32_t* src = right.plane[k].row(y);
-      std::uint32_t* dst = v.mirrored[k].row(y);
-      const int pad = v.mirrored[k].pad();
-      for (int t = -pad; t < w + pad; ++t) dst[t] = src[clamp_index(w - 1 - t, w)];
+  parallel_lines(h, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      for (int k = 0; k < right.words; ++k) {
+        const std::uint32_t* src = right.plane[k].row(y);
+        std::uint32_t* dst = v.mirrored[k].row(y);
+        const int pad = v.mirrored[k].pad();
+        for (int t = -pad; t < w + pad; ++t) dst[t] = src[clamp_index(w - 1 - t, w)];
+      }
     }
-  }
+  });
 }
 
 // Costs of the candidates k = 0 .. stride - 1 of every pixel of a row (those past count are
@@ -181,32 +183,34 @@ void SgmCosts(const CensusCodes& left, const CensusCodes& right, const Plane<std
                            : words == 2 ? RowCostsFor<2>(shd_window)
                                         : RowCostsFor<3>(shd_window);
   const int cw = coarse ? coarse->width() : 1;
-#pragma omp parallel num_threads(scratch.threads)
-  {
-    // Five int rows of the coarse width per thread (sgm_scratch_bytes holds five of the level's).
-    int* lo_c = reinterpret_cast<int*>(scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread);
-    int *hi_c = lo_c + cw, *centre_c = hi_c + cw, *col_min = centre_c + cw, *col_max = col_min + cw;
-    int last_cy = -1;
-#pragma omp for schedule(dynamic, 4)
-    for (int y = 0; y < h; ++y) {
-      if (coarse != nullptr) {
-        const int cy = std::min(y / 2, coarse->height() - 1);
-        if (cy != last_cy) coarse_bands(*coarse, config, cy, lo_c, hi_c, centre_c, col_min, col_max);
-        last_cy = cy;
-      }
-      RowBands(config, w, coarse != nullptr, cw, lo_c, hi_c, centre_c, v.lo.row(y), v.count.row(y));
-      const std::uint32_t* left_rows[9 * 3];
-      const std::uint32_t* mirror_rows[9 * 3];
-      for (int j = 0; j < shd_window; ++j) {
-        const int yy = clamp_index(y - hr + j, h);
-        for (int k = 0; k < words; ++k) {
-          left_rows[j * 3 + k] = left.plane[k].row(yy);
-          mirror_rows[j * 3 + k] = v.mirrored[k].row(yy);
+  if (t_in_frame_region && omp_get_num_threads() > scratch.threads) std::abort();  // a slice per thread
+  parallel_for(
+      h, 4,
+      [&](int y0, int y1) {
+        // Five int rows of the coarse width per thread (sgm_scratch_bytes holds five of the level's).
+        int* lo_c = reinterpret_cast<int*>(scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread);
+        int *hi_c = lo_c + cw, *centre_c = hi_c + cw, *col_min = centre_c + cw, *col_max = col_min + cw;
+        int last_cy = -1;  // the coarse row whose bands lo_c .. col_max hold, within this chunk
+        for (int y = y0; y < y1; ++y) {
+          if (coarse != nullptr) {
+            const int cy = std::min(y / 2, coarse->height() - 1);
+            if (cy != last_cy) coarse_bands(*coarse, config, cy, lo_c, hi_c, centre_c, col_min, col_max);
+            last_cy = cy;
+          }
+          RowBands(config, w, coarse != nullptr, cw, lo_c, hi_c, centre_c, v.lo.row(y), v.count.row(y));
+          const std::uint32_t* left_rows[9 * 3];
+          const std::uint32_t* mirror_rows[9 * 3];
+          for (int j = 0; j < shd_window; ++j) {
+            const int yy = clamp_index(y - hr + j, h);
+            for (int k = 0; k < words; ++k) {
+              left_rows[j * 3 + k] = left.plane[k].row(yy);
+              mirror_rows[j * 3 + k] = v.mirrored[k].row(yy);
+            }
+          }
+          costs(left_rows, mirror_rows, w, v.lo.row(y), v.count.row(y), v.stride, v.cost_at(0, y));
         }
-      }
-      costs(left_rows, mirror_rows, w, v.lo.row(y), v.count.row(y), v.stride, v.cost_at(0, y));
-    }
-  }
+      },
+      scratch.threads);
 }
 
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE

@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <climits>
 
+#include "cpu/parallel.hpp"
 #include "stages.hpp"
 
 
@@ -153,25 +154,28 @@ HWY_INLINE std::int16_t SelectLeft(const std::uint16_t* sum, int lo, int count, 
 void SgmSelect(const SgmVolume& v, const SgmSelectConfig& config, SgmScratch& scratch, Plane<std::int16_t>& left,
                Plane<std::int16_t>* right, Plane<std::uint8_t>* margin) {
   const int w = v.width, h = v.height;
-#pragma omp parallel num_threads(scratch.threads)
-  {
-    auto* rows = reinterpret_cast<std::uint16_t*>(scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread);
-#pragma omp for schedule(dynamic, 4)
-    for (int y = 0; y < h; ++y) {
-      // Row pointers and the stride in locals: the margin stores go through a byte pointer, which
-      // may alias anything, and would make the compiler reload them at every pixel.
-      std::int16_t* out = left.row(y);
-      std::uint8_t* m = margin ? margin->row(y) : nullptr;
-      const std::int16_t* lo = v.lo.row(y);
-      const std::int16_t* count = v.count.row(y);
-      const std::uint16_t* sum = v.sum_at(0, y);
-      const int stride = v.stride;
-      for (int x = 0; x < w; ++x)
-        out[x] = SelectLeft(sum + static_cast<std::size_t>(x) * stride, lo[x], count[x], stride, config,
-                            m ? m + x : nullptr);
-      if (right) SelectRightRow(v, config, y, rows, right->row(y));
-    }
-  }
+  if (t_in_frame_region && omp_get_num_threads() > scratch.threads) std::abort();  // a slice per thread
+  parallel_for(
+      h, 4,
+      [&](int y0, int y1) {
+        auto* rows =
+            reinterpret_cast<std::uint16_t*>(scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread);
+        for (int y = y0; y < y1; ++y) {
+          // Row pointers and the stride in locals: the margin stores go through a byte pointer, which
+          // may alias anything, and would make the compiler reload them at every pixel.
+          std::int16_t* out = left.row(y);
+          std::uint8_t* m = margin ? margin->row(y) : nullptr;
+          const std::int16_t* lo = v.lo.row(y);
+          const std::int16_t* count = v.count.row(y);
+          const std::uint16_t* sum = v.sum_at(0, y);
+          const int stride = v.stride;
+          for (int x = 0; x < w; ++x)
+            out[x] = SelectLeft(sum + static_cast<std::size_t>(x) * stride, lo[x], count[x], stride, config,
+                                m ? m + x : nullptr);
+          if (right) SelectRightRow(v, config, y, rows, right->row(y));
+        }
+      },
+      scratch.threads);
 }
 
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE

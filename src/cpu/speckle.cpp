@@ -26,6 +26,7 @@
 #include <omp.h>
 
 #include "cpu/mask_bits-inl.h"
+#include "cpu/parallel.hpp"
 #include "stages.hpp"
 
 HWY_BEFORE_NAMESPACE();
@@ -168,52 +169,52 @@ void remove_speckles(Plane<std::int16_t>& disparity, int max_size, int max_diff_
     return RowMaskView{m, m + words, m + 2 * words};
   };
 
-  // Each thread labels a band of rows on its own; the links across band boundaries are joined
-  // afterwards by one thread. Union-find entries are pixel indices, so bands never collide.
-#pragma omp parallel
-  {
-    const int bands = omp_get_num_threads(), band = omp_get_thread_num();
-    const int y0 = static_cast<int>(static_cast<std::int64_t>(h) * band / bands);
-    const int y1 = static_cast<int>(static_cast<std::int64_t>(h) * (band + 1) / bands);
-    HWY_DYNAMIC_DISPATCH(RowMasks)(disparity, max_diff_q4, y0, y1, label);
+  // The rows are cut into bands, each labelled on its own by one chunk; the links across band
+  // boundaries are joined afterwards by one thread. Union-find entries are pixel indices, so bands
+  // never collide, and the components, hence the result, do not depend on the bands.
+  const int bands = std::min(stage_threads(), h);
+  const auto band_start = [&](int b) { return static_cast<int>(static_cast<std::int64_t>(h) * b / bands); };
+  parallel_for(bands, 1, [&](int b0, int b1) {
+    for (int band = b0; band < b1; ++band) {
+      const int y0 = band_start(band), y1 = band_start(band + 1);
+      HWY_DYNAMIC_DISPATCH(RowMasks)(disparity, max_diff_q4, y0, y1, label);
 
-    // Pass 1, in raster order: every run head becomes a root holding the run's size; a run joins
-    // the component of each run above it that it touches.
-    for (int y = y0; y < y1; ++y) {
-      const RowMaskView row = masks(y);
-      std::int32_t root = -1;  // root of the current run's component
-      for (int i = 0; i < words; ++i) {
-        const std::uint32_t heads = row.heads(i);
-        const std::uint32_t links = y > y0 ? row.links(i, masks(y - 1)) : 0u;
-        for (std::uint32_t events = heads | links; events != 0; events &= events - 1) {
-          const int b = std::countr_zero(events);
-          const int x = 32 * i + b;
-          if ((heads >> b) & 1u) {
-            root = y * w + x;
-            parent[root] = -(next_clear(row.left, words, x + 1, w) - x);
+      // Pass 1, in raster order: every run head becomes a root holding the run's size; a run joins
+      // the component of each run above it that it touches.
+      for (int y = y0; y < y1; ++y) {
+        const RowMaskView row = masks(y);
+        std::int32_t root = -1;  // root of the current run's component
+        for (int i = 0; i < words; ++i) {
+          const std::uint32_t heads = row.heads(i);
+          const std::uint32_t links = y > y0 ? row.links(i, masks(y - 1)) : 0u;
+          for (std::uint32_t events = heads | links; events != 0; events &= events - 1) {
+            const int b = std::countr_zero(events);
+            const int x = 32 * i + b;
+            if ((heads >> b) & 1u) {
+              root = y * w + x;
+              parent[root] = -(next_clear(row.left, words, x + 1, w) - x);
+            }
+            if ((links >> b) & 1u)
+              root = unite(parent, root, find_root(parent, (y - 1) * w + masks(y - 1).run_head(x)));
           }
-          if ((links >> b) & 1u)
-            root = unite(parent, root, find_root(parent, (y - 1) * w + masks(y - 1).run_head(x)));
         }
       }
     }
-#pragma omp barrier
-#pragma omp single
-    for (int b = 1; b < bands; ++b) {
-      const int y = static_cast<int>(static_cast<std::int64_t>(h) * b / bands);
-      if (y == 0 || y >= h) continue;
-      const RowMaskView row = masks(y), above = masks(y - 1);
-      for (int i = 0; i < words; ++i) {
-        for (std::uint32_t links = row.links(i, above); links != 0; links &= links - 1) {
-          const int x = 32 * i + std::countr_zero(links);
-          unite(parent, find_root(parent, y * w + row.run_head(x)),
-                find_root(parent, (y - 1) * w + above.run_head(x)));
-        }
+  });
+  for (int band = 1; band < bands; ++band) {
+    const int y = band_start(band);
+    if (y == 0 || y >= h) continue;
+    const RowMaskView row = masks(y), above = masks(y - 1);
+    for (int i = 0; i < words; ++i) {
+      for (std::uint32_t links = row.links(i, above); links != 0; links &= links - 1) {
+        const int x = 32 * i + std::countr_zero(links);
+        unite(parent, find_root(parent, y * w + row.run_head(x)), find_root(parent, (y - 1) * w + above.run_head(x)));
       }
     }
-    // (the end of `single` is a barrier)
+  }
 
-    // Pass 2: erase the runs of small components. The forest is only read from here on.
+  // Pass 2: erase the runs of small components. The forest is only read from here on.
+  parallel_lines(h, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
       const RowMaskView row = masks(y);
       std::int16_t* d = disparity.row(y);
@@ -226,7 +227,7 @@ void remove_speckles(Plane<std::int16_t>& disparity, int max_size, int max_diff_
         }
       }
     }
-  }
+  });
 }
 
 }  // namespace mctstereo::detail::cpu

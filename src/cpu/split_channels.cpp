@@ -6,6 +6,7 @@
 
 #include <cstring>
 
+#include "cpu/parallel.hpp"
 #include "stages.hpp"
 
 HWY_BEFORE_NAMESPACE();
@@ -35,11 +36,12 @@ void SplitRow(const std::uint8_t* HWY_RESTRICT src, int width, std::uint8_t* HWY
 
 void SplitChannels(const ImageView& src, std::array<Plane<std::uint8_t>, 3>& dst) {
   const int w = src.width, h = src.height;
-#pragma omp parallel for schedule(static)
-  for (int y = 0; y < h; ++y) {
-    if (src.format == PixelFormat::Gray8) std::memcpy(dst[0].row(y), src.row(y), static_cast<std::size_t>(w));
-    else SplitRow(src.row(y), w, dst[0].row(y), dst[1].row(y), dst[2].row(y));
-  }
+  parallel_lines(h, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      if (src.format == PixelFormat::Gray8) std::memcpy(dst[0].row(y), src.row(y), static_cast<std::size_t>(w));
+      else SplitRow(src.row(y), w, dst[0].row(y), dst[1].row(y), dst[2].row(y));
+    }
+  });
 }
 
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE

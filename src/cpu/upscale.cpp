@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cstring>
 
+#include "cpu/parallel.hpp"
 #include "stages.hpp"
 
 HWY_BEFORE_NAMESPACE();
@@ -58,13 +59,14 @@ void Upscale(const Plane<std::int16_t>& src, int factor, int lo_q4, int hi_q4, P
   const int w = dst.width(), h = dst.height();
   if (w == 0 || h == 0) return;
   const int src_rows = (h + factor - 1) / factor;
-#pragma omp parallel for schedule(static)
-  for (int sy = 0; sy < src_rows; ++sy) {
-    // The factor output rows of one source row are equal: compute the first, copy it.
-    const int y0 = sy * factor, y_end = std::min(y0 + factor, h);
-    UpscaleRow(src.row(sy), factor, lo_q4, hi_q4, w, dst.row(y0));
-    for (int y = y0 + 1; y < y_end; ++y) std::memcpy(dst.row(y), dst.row(y0), sizeof(std::int16_t) * w);
-  }
+  parallel_lines(src_rows, [&](int sy0, int sy1) {
+    for (int sy = sy0; sy < sy1; ++sy) {
+      // The factor output rows of one source row are equal: compute the first, copy it.
+      const int y0 = sy * factor, y_end = std::min(y0 + factor, h);
+      UpscaleRow(src.row(sy), factor, lo_q4, hi_q4, w, dst.row(y0));
+      for (int y = y0 + 1; y < y_end; ++y) std::memcpy(dst.row(y), dst.row(y0), sizeof(std::int16_t) * w);
+    }
+  });
 }
 
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE

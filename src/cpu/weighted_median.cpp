@@ -24,6 +24,7 @@
 #include <cstring>
 #include <utility>
 
+#include "cpu/parallel.hpp"
 #include "stages.hpp"
 
 HWY_BEFORE_NAMESPACE();
@@ -192,52 +193,53 @@ void MedianRows(const Plane<std::int16_t>& src, const ColourPlanes& colour, cons
   const void* wide_table = nullptr;
 #endif
 
-#pragma omp parallel for schedule(dynamic, 4)
-  for (int y = 0; y < h; ++y) {
-    HWY_ALIGN std::int16_t disp[kMaxWeightedMedianSamples * kMaxLanes];
-    HWY_ALIGN std::uint16_t weight[kMaxWeightedMedianSamples * kMaxLanes];
-    // Vectors near a border (or every vector of a narrow map) read copies of their window with
-    // clamped columns: kMaxLanes + 2 reach entries, and a vector's slack after them.
-    constexpr int kBorderWidth = kMaxLanes + 2 * kMaxReach + kMaxLanes;
-    HWY_ALIGN std::int16_t border_map[kMaxRows][kBorderWidth];
-    HWY_ALIGN std::uint8_t border_colour[3][kMaxRows][kBorderWidth];
-    HWY_ALIGN std::int16_t tail[kMaxLanes];
-    const std::int16_t* map_rows[kMaxRows];
-    const std::uint8_t* colour_rows[3][kMaxRows];
-    for (int j = 0; j < rows; ++j) {
-      const int yj = clamp_index(y + (j - rows / 2) * step, h);
-      map_rows[j] = src.row(yj);
-      for (int c = 0; c < kChannels; ++c) colour_rows[c][j] = colour.plane[c]->row(yj);
-    }
-    std::int16_t* out = dst.row(y);
-    for (int x0 = 0; x0 < w; x0 += n) {
-      const std::int16_t* map[kMaxRows];
-      const std::uint8_t* col[3][kMaxRows];
-      if (x0 >= reach && x0 + n + reach <= w) {
-        for (int j = 0; j < rows; ++j) {
-          map[j] = map_rows[j] + x0;
-          for (int c = 0; c < kChannels; ++c) col[c][j] = colour_rows[c][j] + x0;
-        }
-      } else {
-        for (int j = 0; j < rows; ++j) {
-          for (int i = 0; i < n + 2 * reach; ++i) {
-            const int x = clamp_index(x0 - reach + i, w);
-            border_map[j][i] = map_rows[j][x];
-            for (int c = 0; c < kChannels; ++c) border_colour[c][j][i] = colour_rows[c][j][x];
+  parallel_for(h, 4, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      HWY_ALIGN std::int16_t disp[kMaxWeightedMedianSamples * kMaxLanes];
+      HWY_ALIGN std::uint16_t weight[kMaxWeightedMedianSamples * kMaxLanes];
+      // Vectors near a border (or every vector of a narrow map) read copies of their window with
+      // clamped columns: kMaxLanes + 2 reach entries, and a vector's slack after them.
+      constexpr int kBorderWidth = kMaxLanes + 2 * kMaxReach + kMaxLanes;
+      HWY_ALIGN std::int16_t border_map[kMaxRows][kBorderWidth];
+      HWY_ALIGN std::uint8_t border_colour[3][kMaxRows][kBorderWidth];
+      HWY_ALIGN std::int16_t tail[kMaxLanes];
+      const std::int16_t* map_rows[kMaxRows];
+      const std::uint8_t* colour_rows[3][kMaxRows];
+      for (int j = 0; j < rows; ++j) {
+        const int yj = clamp_index(y + (j - rows / 2) * step, h);
+        map_rows[j] = src.row(yj);
+        for (int c = 0; c < kChannels; ++c) colour_rows[c][j] = colour.plane[c]->row(yj);
+      }
+      std::int16_t* out = dst.row(y);
+      for (int x0 = 0; x0 < w; x0 += n) {
+        const std::int16_t* map[kMaxRows];
+        const std::uint8_t* col[3][kMaxRows];
+        if (x0 >= reach && x0 + n + reach <= w) {
+          for (int j = 0; j < rows; ++j) {
+            map[j] = map_rows[j] + x0;
+            for (int c = 0; c < kChannels; ++c) col[c][j] = colour_rows[c][j] + x0;
           }
-          map[j] = border_map[j] + reach;
-          for (int c = 0; c < kChannels; ++c) col[c][j] = border_colour[c][j] + reach;
+        } else {
+          for (int j = 0; j < rows; ++j) {
+            for (int i = 0; i < n + 2 * reach; ++i) {
+              const int x = clamp_index(x0 - reach + i, w);
+              border_map[j][i] = map_rows[j][x];
+              for (int c = 0; c < kChannels; ++c) border_colour[c][j][i] = colour_rows[c][j][x];
+            }
+            map[j] = border_map[j] + reach;
+            for (int c = 0; c < kChannels; ++c) col[c][j] = border_colour[c][j] + reach;
+          }
+        }
+        const V16 m = MedianVector<kChannels>(map, col, rows, reach, step, lut, blocks, wide_table, disp, weight);
+        if (x0 + n <= w) {
+          hn::StoreU(m, d, out + x0);
+        } else {
+          hn::Store(m, d, tail);
+          std::memcpy(out + x0, tail, sizeof(std::int16_t) * (w - x0));
         }
       }
-      const V16 m = MedianVector<kChannels>(map, col, rows, reach, step, lut, blocks, wide_table, disp, weight);
-      if (x0 + n <= w) {
-        hn::StoreU(m, d, out + x0);
-      } else {
-        hn::Store(m, d, tail);
-        std::memcpy(out + x0, tail, sizeof(std::int16_t) * (w - x0));
-      }
     }
-  }
+  });
 }
 
 void WeightedMedian(const Plane<std::int16_t>& src, const ColourPlanes& colour, const WeightedMedianConfig& config,
@@ -268,68 +270,69 @@ void weighted_median_scalar(const Plane<std::int16_t>& src, const ColourPlanes& 
   const int w = src.width(), h = src.height();
   const int step = config.step, reach = config.radius / step * step;
   const int channels = colour.channels;
-#pragma omp parallel for schedule(dynamic, 4)
-  for (int y = 0; y < h; ++y) {
-    std::pair<int, int> samples[kMaxWeightedMedianSamples];
-    int histogram[4097] = {};  // whole disparities -2048 .. 2048
-    const std::uint8_t* centre[3];
-    for (int c = 0; c < channels; ++c) centre[c] = colour.plane[c]->row(y);
-    for (int x = 0; x < w; ++x) {
-      int count = 0, total = 0, lo = 1 << 20, hi = -(1 << 20);
-      for (int dy = -reach; dy <= reach; dy += step) {
-        const int qy = clamp_index(y + dy, h);
-        const std::int16_t* row = src.row(qy);
-        for (int dx = -reach; dx <= reach; dx += step) {
-          const int qx = clamp_index(x + dx, w);
-          const int v = row[qx];
-          if (v == kInvalid) continue;
-          int k = 0;
-          for (int c = 0; c < channels; ++c) {
-            const int diff = centre[c][x] - colour.plane[c]->row(qy)[qx];
-            k = std::max(k, diff < 0 ? -diff : diff);
-          }
-          const int weight = config.lut[k];
-          if (weight == 0) continue;
-          const int dv = q4_to_whole(v);
-          samples[count++] = {dv, weight};
-          total += weight;
-          lo = std::min(lo, dv);
-          hi = std::max(hi, dv);
-        }
-      }
-      const int own = src.row(y)[x];
-      if (total == 0) {
-        dst.row(y)[x] = static_cast<std::int16_t>(own);
-        continue;
-      }
-      const int half = (total + 1) / 2;
-      int median = hi;
-      if (method == WeightedMedianMethod::Histogram) {
-        for (int i = 0; i < count; ++i) histogram[samples[i].first + 2048] += samples[i].second;
-        int running = 0;
-        for (int dv = lo; dv <= hi; ++dv) {
-          running += histogram[dv + 2048];
-          if (running >= half) {
-            median = dv;
-            break;
+  parallel_for(h, 4, [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) {
+      std::pair<int, int> samples[kMaxWeightedMedianSamples];
+      int histogram[4097] = {};  // whole disparities -2048 .. 2048
+      const std::uint8_t* centre[3];
+      for (int c = 0; c < channels; ++c) centre[c] = colour.plane[c]->row(y);
+      for (int x = 0; x < w; ++x) {
+        int count = 0, total = 0, lo = 1 << 20, hi = -(1 << 20);
+        for (int dy = -reach; dy <= reach; dy += step) {
+          const int qy = clamp_index(y + dy, h);
+          const std::int16_t* row = src.row(qy);
+          for (int dx = -reach; dx <= reach; dx += step) {
+            const int qx = clamp_index(x + dx, w);
+            const int v = row[qx];
+            if (v == kInvalid) continue;
+            int k = 0;
+            for (int c = 0; c < channels; ++c) {
+              const int diff = centre[c][x] - colour.plane[c]->row(qy)[qx];
+              k = std::max(k, diff < 0 ? -diff : diff);
+            }
+            const int weight = config.lut[k];
+            if (weight == 0) continue;
+            const int dv = q4_to_whole(v);
+            samples[count++] = {dv, weight};
+            total += weight;
+            lo = std::min(lo, dv);
+            hi = std::max(hi, dv);
           }
         }
-        for (int i = 0; i < count; ++i) histogram[samples[i].first + 2048] = 0;
-      } else {
-        std::sort(samples, samples + count);
-        int running = 0;
-        for (int i = 0; i < count; ++i) {
-          running += samples[i].second;
-          if (running >= half) {
-            median = samples[i].first;
-            break;
+        const int own = src.row(y)[x];
+        if (total == 0) {
+          dst.row(y)[x] = static_cast<std::int16_t>(own);
+          continue;
+        }
+        const int half = (total + 1) / 2;
+        int median = hi;
+        if (method == WeightedMedianMethod::Histogram) {
+          for (int i = 0; i < count; ++i) histogram[samples[i].first + 2048] += samples[i].second;
+          int running = 0;
+          for (int dv = lo; dv <= hi; ++dv) {
+            running += histogram[dv + 2048];
+            if (running >= half) {
+              median = dv;
+              break;
+            }
+          }
+          for (int i = 0; i < count; ++i) histogram[samples[i].first + 2048] = 0;
+        } else {
+          std::sort(samples, samples + count);
+          int running = 0;
+          for (int i = 0; i < count; ++i) {
+            running += samples[i].second;
+            if (running >= half) {
+              median = samples[i].first;
+              break;
+            }
           }
         }
+        dst.row(y)[x] = own != kInvalid && q4_to_whole(own) == median ? static_cast<std::int16_t>(own)
+                                                                      : static_cast<std::int16_t>(16 * median);
       }
-      dst.row(y)[x] = own != kInvalid && q4_to_whole(own) == median ? static_cast<std::int16_t>(own)
-                                                                    : static_cast<std::int16_t>(16 * median);
     }
-  }
+  });
 }
 
 }  // namespace mctstereo::detail::cpu
