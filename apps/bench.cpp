@@ -30,6 +30,8 @@
 //     "refine", "wmedian" (the colour-weighted median), "output", "frame"}; opencl: {"upload", "gray", "pyramid", "census", "match",
 //     "median", "lr_check", "speckle", "fill", "upscale", "output", "download", "frame"}, the
 //     kernels' device times from profiling events and the host's times of the rest),
+//     "level_work" (reference and cpu: per level, finest first, {"width", "height", "views",
+//     "candidates"}: Matcher::level_work() of the last frame),
 //     "ratio_to_stereobm" (fps / fps of StereoBM in the same group; null without one), last }
 //   "memory": {
 //     "peak_resident_bytes": this process's peak resident memory (VmHWM), every size included,
@@ -228,6 +230,7 @@ struct Measurement {
   double median_ms = 0, p95_ms = 0;
   double ratio_to_stereobm = std::numeric_limits<double>::quiet_NaN();  // NaN: no StereoBM in the group
   std::vector<StageTime> stage_median_ms;                               // mctstereo only
+  std::vector<LevelWork> work;  // host backends: the candidates the matching examined per level
   double fps() const { return median_ms > 0 ? 1000.0 / median_ms : 0.0; }
 };
 
@@ -668,6 +671,7 @@ void time_preset(Timing& t, Group& g, const std::string& name, Backend backend, 
       time_frames([&] { method.compute(views); }, collect_stages, plan, t.setup.min_time_s);
   for (std::size_t s = 0; s < stage_ms.size(); ++s)
     m.stage_median_ms.push_back({matcher.timings()[s].stage, median(stage_ms[s])});
+  m.work = matcher.level_work();
   record(t, g, std::move(m), ms);
 }
 
@@ -738,6 +742,57 @@ void print_stage_tables(const std::vector<Measurement>& measurements, Progress& 
     }
     std::fflush(stdout);
   }
+}
+
+// The model of the box matching kernel's arithmetic (src/cpu/match.cpp), per vector of int16 lanes
+// of one candidate: XOR and popcount of the census word in two u32 vectors and their narrowing
+// (5), the vertical running sum's add and subtract over 16 rows plus the 4 rows of the window
+// margin (2.5), the horizontal 5-tap sum (4), and the winner and runner-up updates (4).
+constexpr double kBoxOpsPerVector = 15.5;
+
+// Cycles per pixel-disparity pair at which the box kernel's vector ALU work alone would run on
+// the SIMD target: kBoxOpsPerVector / (int16 lanes x vector ALU ports). 0 when unknown.
+double box_alu_bound(const std::string& target) {
+  if (target.rfind("AVX3", 0) == 0) return kBoxOpsPerVector / (32 * 2);  // 512-bit: ports 0 and 5
+  if (target == "AVX2") return kBoxOpsPerVector / (16 * 3);              // 256-bit: ports 0, 1, 5
+  if (target == "SSE4" || target == "SSSE3" || target == "NEON") return kBoxOpsPerVector / (8 * 2);
+  return 0.0;
+}
+
+// What the matching stage costs per pixel and per pixel-disparity pair: the match stage's median
+// time as thread time (wall x threads, so that 1 and 2 threads compare) over the pairs that
+// level_work() counted, in ns and in cycles at the CPU's clock, next to the box kernel's ALU bound.
+void print_work_table(const RunSetup& setup, const std::vector<Measurement>& measurements) {
+  const double mhz = cpu_mhz();
+  bool any = false;
+  for (const Measurement& m : measurements) any = any || !m.work.empty();
+  if (!any) return;
+  std::printf("\nmatching work: candidates = disparities examined per pixel and view (finest level); pairs/px =\n"
+              "pixel-disparity pairs of all levels and views per input pixel; match stage thread time (median x\n"
+              "threads) per input pixel and per pair, cycles at %.0f MHz; bound = the box kernel's vector ALU work\n"
+              "per pair on %s (docs/RESULTS.md, \"Roofline\")\n",
+              mhz, setup.simd_target.c_str());
+  std::printf("%-10s %5s %4s  %-18s %-9s %10s %8s %9s %9s %10s %7s\n", "size", "disp", "thr", "method", "backend",
+              "candidates", "pairs/px", "ns/px", "ns/pair", "cyc/pair", "bound");
+  for (const Measurement& m : measurements) {
+    if (m.work.empty()) continue;
+    double pairs = 0.0;
+    for (const LevelWork& w : m.work) pairs += w.pairs();
+    double match_ms = 0.0;
+    for (const StageTime& s : m.stage_median_ms)
+      if (s.stage == "match") match_ms = s.ms;
+    const double pixels = static_cast<double>(m.size.width) * m.size.height;
+    const double thread_ns = match_ms * 1e6 * m.threads;
+    const double ns_pair = pairs > 0 ? thread_ns / pairs : 0.0;
+    const bool box = !bench_params(m.method, m.num_disparities).sgm();
+    const double bound = m.backend == "cpu" && box ? box_alu_bound(setup.simd_target) : 0.0;
+    std::printf("%-10s %5d %4d  %-18s %-9s %10.2f %8.2f %9.3f %9.4f %10.3f", m.size.text().c_str(), m.num_disparities,
+                m.threads, m.method.c_str(), m.backend.c_str(), m.work.front().candidates, pairs / pixels,
+                thread_ns / pixels, ns_pair, ns_pair * mhz * 1e-3);
+    if (bound > 0) std::printf(" %7.3f\n", bound);
+    else std::printf(" %7s\n", "-");
+  }
+  std::fflush(stdout);
 }
 
 // The memory probes run on the cpu backend unless only the reference backend was timed, with the
@@ -867,6 +922,18 @@ Json measurement_json(const Measurement& m) {
   rec.set("threads_requested", m.threads_requested);
   rec.set("warmup_frames", m.warmup);
   if (!m.stage_median_ms.empty()) rec.set("stage_median_ms", stage_json(m.stage_median_ms));
+  if (!m.work.empty()) {
+    Json levels = Json::array();
+    for (const LevelWork& w : m.work) {
+      Json level = Json::object();
+      level.set("width", w.width);
+      level.set("height", w.height);
+      level.set("views", w.views);
+      level.set("candidates", w.candidates);
+      levels.push_back(std::move(level));
+    }
+    rec.set("level_work", std::move(levels));
+  }
   rec.set("ratio_to_stereobm", m.ratio_to_stereobm);  // null without a StereoBM time
   return rec;
 }
@@ -1007,6 +1074,7 @@ void BenchCommand::run() const {
   time_groups(timing, left, right);
   load.reset();
   print_stage_tables(timing.measurements, progress);
+  print_work_table(setup, timing.measurements);
 
   const std::vector<MemoryRecord> memory = probe_memory(setup, progress, skips);
   print_memory_table(setup, memory);

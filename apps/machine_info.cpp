@@ -23,6 +23,17 @@ std::string cpu_model() {
   return "unknown";
 }
 
+double cpu_mhz() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(in, line)) {
+    if (line.rfind("cpu MHz", 0) != 0) continue;
+    const auto colon = line.find(':');
+    if (colon != std::string::npos) return std::strtod(line.c_str() + colon + 1, nullptr);
+  }
+  return 0.0;
+}
+
 long status_kib(const std::string& key) {
   std::ifstream in("/proc/self/status");
   std::string line;

@@ -8,6 +8,9 @@ namespace mctstereo::app {
 
 /// The CPU's model name from /proc/cpuinfo, or "unknown".
 std::string cpu_model();
+/// The clock of the first CPU in MHz from /proc/cpuinfo ("cpu MHz"; on a virtual machine the
+/// host's nominal clock), or 0 where there is none.
+double cpu_mhz();
 /// A "kB" line of /proc/self/status ("VmRSS", "VmHWM"), KiB; -1 where there is
 /// none.
 long status_kib(const std::string &key);

@@ -503,6 +503,39 @@ struct Matcher::Impl {
   }
 
   std::int16_t invalid_q4() const { return static_cast<std::int16_t>((params.min_disparity - 1) * kDisparityScale); }
+
+  // The candidates of each level's matching: the band SGM volume's counts, or the search range
+  // that match() derives from the coarser level's map of the same view (which no later level
+  // overwrites).
+  std::vector<LevelWork> level_work() const {
+    std::vector<LevelWork> work;
+    if (!has_frame || levels.empty()) return work;
+    for (std::size_t l = 0; l < levels.size(); ++l) {
+      const Level& L = levels[l];
+      LevelWork& w = work.emplace_back();
+      w.width = L.width;
+      w.height = L.height;
+      double total = 0.0;
+      if (params.sgm()) {
+        w.views = 1;
+        for (int y = 0; y < L.height; ++y)
+          for (int x = 0; x < L.width; ++x) total += L.sgm.count.at(x, y);
+      } else {
+        w.views = need_right ? 2 : 1;
+        for (int v = 0; v < w.views; ++v) {
+          const Plane<std::int16_t>* prior = L.coarsest ? nullptr : &levels[l + 1].disparity[v];
+          for (int y = 0; y < L.height; ++y)
+            for (int x = 0; x < L.width; ++x) {
+              const detail::Interval r = detail::search_range_at(prior, L.dmin, L.dmax, L.radius, x, y);
+              total += std::max(r.hi - r.lo + 1, 0);
+            }
+        }
+      }
+      const double pixels = static_cast<double>(L.width) * L.height * w.views;
+      w.candidates = pixels > 0 ? total / pixels : 0.0;
+    }
+    return work;
+  }
 };
 
 Matcher::Matcher(int width, int height, const StereoParams& params, Backend backend, const MatcherOptions& options)
@@ -560,6 +593,7 @@ int Matcher::threads() const { return impl_->threads; }
 std::string Matcher::simd_target() const {
   return impl_->backend == Backend::Reference ? "scalar" : detail::cpu::simd_target_name();
 }
+std::vector<LevelWork> Matcher::level_work() const { return impl_->level_work(); }
 const std::vector<StageTime>& Matcher::timings() const {
 #ifdef MCTSTEREO_HAVE_OPENCL
   if (impl_->device) return impl_->device->timings();

@@ -348,6 +348,49 @@ TEST(Pipeline, ConfidenceMapOfBoxAggregation) {
   EXPECT_GE(box_presets, 4);
 }
 
+// level_work(): the coarsest level searches its whole range; on a pair shifted by one constant
+// disparity every finer level searches about 2 r + 1 candidates around the prior; band SGM counts
+// its volume's candidates, of one view. Equal on the reference and cpu backends.
+TEST(Pipeline, LevelWorkCountsTheCandidatesOfEachLevel) {
+  ShiftedPair shifted = shifted_pair(256, 128, 5, 16);
+  const StereoPair pair{std::move(shifted.left), std::move(shifted.right)};
+  StereoParams p = preset("realtime");  // 4 levels, radius 1, LR check: both views
+  p.num_disparities = 64;
+  Matcher m(256, 128, p);
+  EXPECT_TRUE(m.level_work().empty()) << "no frame yet";
+  const ImageView left = pair.left_view(), right = pair.right_view();
+  m.compute(left, right);
+  const std::vector<LevelWork> work = m.level_work();
+  ASSERT_EQ(work.size(), 4u);
+  EXPECT_EQ(work[0].width, 256);
+  EXPECT_EQ(work[3].width, 32);
+  EXPECT_EQ(work[3].height, 16);
+  for (const LevelWork& w : work) EXPECT_EQ(w.views, 2);
+  EXPECT_DOUBLE_EQ(work[3].candidates, 9.0) << "0 .. ceil(63 / 8)";
+  for (int l = 0; l < 3; ++l) {
+    EXPECT_GE(work[l].candidates, 2.5) << "level " << l;
+    EXPECT_LE(work[l].candidates, 3.6) << "level " << l;
+  }
+  EXPECT_DOUBLE_EQ(work[0].pairs(), 256.0 * 128 * 2 * work[0].candidates);
+  Matcher ref(256, 128, p, Backend::Reference);
+  ref.compute(left, right);
+  for (int l = 0; l < 4; ++l) EXPECT_DOUBLE_EQ(ref.level_work()[l].candidates, work[l].candidates);
+
+  StereoParams sgm = preset("balanced");
+  sgm.num_disparities = 64;
+  Matcher band(256, 128, sgm);
+  band.compute(left, right);
+  const std::vector<LevelWork> band_work = band.level_work();
+  ASSERT_EQ(band_work.size(), static_cast<std::size_t>(sgm.pyramid_levels));
+  for (const LevelWork& w : band_work) EXPECT_EQ(w.views, 1);
+  // The coarsest level (64 wide) holds 0 .. 16 (1/4 scale) where x - d stays in the image:
+  // min(17, x + 1) candidates at column x, (1 + ... + 16 + 48 x 17) / 64 per pixel.
+  EXPECT_EQ(band_work.back().width, 64);
+  EXPECT_DOUBLE_EQ(band_work.back().candidates, (136.0 + 48 * 17) / 64);
+  EXPECT_GE(band_work.front().candidates, 5.0);
+  EXPECT_LE(band_work.front().candidates, static_cast<double>(sgm.sgm_max_band));
+}
+
 TEST(Pipeline, MemoryGrowsWithTheSearchWidthNotTheRange) {
   StereoParams p = preset("balanced");
   p.num_disparities = 64;

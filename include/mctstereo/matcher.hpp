@@ -52,6 +52,17 @@ struct StageTime {
   double ms = 0.0;
 };
 
+/// What the matching stage examined at one pyramid level of the last frame.
+struct LevelWork {
+  int width = 0, height = 0;  ///< the level's size
+  /// Views matched: 2 when the LR check (or compute_right) needs the right map of box
+  /// aggregation; 1 with band SGM, whose right map comes from the same sums.
+  int views = 0;
+  double candidates = 0.0;  ///< disparities examined per pixel and view, mean over the level
+  /// Pixel-disparity pairs examined at the level, all views: width x height x views x candidates.
+  double pairs() const { return static_cast<double>(width) * height * views * candidates; }
+};
+
 /// Dense stereo matcher on the (modified) census transform with multi-resolution search.
 ///
 /// The constructor validates the parameters (std::invalid_argument with the message of
@@ -124,6 +135,11 @@ class Matcher {
   /// stage that did not run), except upload, download and speckle (on the host, its transfers
   /// included) and frame (the whole call), which are host wall ms.
   const std::vector<StageTime>& timings() const;
+  /// The candidates of the last frame's matching stage, per level (finest first): with timings(),
+  /// the time per pixel and disparity. Counted on request from the last frame's priors (a pass over
+  /// each level's pixels), so a caller that does not ask pays nothing. Empty before the first frame
+  /// and on the opencl backend.
+  std::vector<LevelWork> level_work() const;
 
  private:
   struct Impl;

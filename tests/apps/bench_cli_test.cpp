@@ -228,6 +228,12 @@ TEST_F(BenchCli, ListsGiveOneRecordPerCombination) {
       EXPECT_LE(stages.members[s].second.number, stages["frame"].number) << kStages[s];
     }
     EXPECT_GT(stages["frame"].number, 0.0);
+    // realtime: 4 levels, both views; the coarsest (1/8) searches 0 .. ceil((d - 1) / 8).
+    const JsonValue& work = rec["level_work"];
+    ASSERT_EQ(work.items.size(), 4u);
+    EXPECT_EQ(work.items[0]["width"].number, rec["width"].number);
+    EXPECT_EQ(work.items[3]["views"].number, 2);
+    EXPECT_EQ(work.items[3]["candidates"].number, rec["num_disparities"].number == 16 ? 3.0 : 5.0);
   }
   std::multiset<std::tuple<std::string, int, int, int, std::string>> expected;
   for (int width : {96, 128})
@@ -245,6 +251,7 @@ TEST_F(BenchCli, ListsGiveOneRecordPerCombination) {
   for (std::size_t at = 0; (at = r.output.find(" opencv-stereobm ", at)) != std::string::npos; ++at) ++stereobm_rows;
   EXPECT_EQ(stereobm_rows, 8u) << r.output;
   EXPECT_NE(r.output.find("per-stage medians"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("matching work: "), std::string::npos) << r.output;
 
   const JsonValue& settings = report["settings"];
   for (const char* key : {"cpu_model", "simd_target", "compiler", "build_type", "mctstereo_version", "opencv_version"})
