@@ -19,7 +19,7 @@
 //     "opencl_device": "NAME (PLATFORM)" when the opencl backend ran, else absent,
 //     "sizes": ["WxH", ..], "presets": [..],
 //     "warmup_frames", "min_frames", "min_time_s": the flags, before the per-size scaling,
-//     "left_image", "right_image" }
+//     "left_image", "right_image", "fit" ("stretch" or "tile": --fit) }
 //   "records": one per (method, size, disparities, threads, backend) timed: {
 //     "method" (a preset, "opencv-stereobm" or "opencv-stereosgbm"), "kind" ("mctstereo" or
 //     "opencv"), "width", "height", "num_disparities" (OpenCV: rounded up to a multiple of 16),
@@ -103,7 +103,8 @@ namespace {
 
 constexpr const char* kBenchFooter =
     R"(Each method matches the same gray frames (the Tsukuba pair, or --image-left/--image-right,
-resized to each size): --warmup frames first, then at least --frames frames and until --min-time
+resized to each size, or with --fit tile repeated at its own size to fill it, so that disparities
+and texture stay those of the pair at every size): --warmup frames first, then at least --frames frames and until --min-time
 seconds have passed. Above 1280x720 both counts shrink with the pixel count (at least 5 timed
 frames and 1 warm-up); the reference backend, slow, scales so from 320x240 on (at least 1 frame
 each) and is timed once per size and range, with the first --threads value.
@@ -493,6 +494,7 @@ struct RunSetup {
   std::string simd_target;  // of the cpu backend; "scalar" when only the reference backend runs
   int warmup = 0, frames = 0, load = 0, first_opencv_threads = 0;
   double min_time_s = 0.0;
+  bool tile = false;  // --fit tile: the pair repeated at its own size, not resized
 
   bool has(Backend b) const { return std::find(backends.begin(), backends.end(), b) != backends.end(); }
 };
@@ -539,6 +541,7 @@ void print_header(const RunSetup& setup) {
   const char* policy_env = std::getenv("OMP_WAIT_POLICY");
   std::printf("waiting   OpenMP threads wait with GOMP_SPINCOUNT=%s, OMP_WAIT_POLICY=%s\n", spin_env ? spin_env : "(unset)",
               policy_env ? policy_env : "(unset)");
+  if (setup.tile) std::printf("frames    the pair repeated at its own size to fill each size (--fit tile)\n");
   if (setup.load > 0) std::printf("load      %d busy threads in another process during the timing\n", setup.load);
   std::printf("date      %s\n\n", utc_date().c_str());
 }
@@ -675,6 +678,22 @@ void time_preset(Timing& t, Group& g, const std::string& name, Backend backend, 
   record(t, g, std::move(m), ms);
 }
 
+// The source image at a frame size: resized (stretched), or repeated at its own size and cut.
+cv::Mat fit_to(const cv::Mat& source, const FrameSize& size, bool tile) {
+  cv::Mat out;
+  if (!tile) {
+    cv::resize(source, out, cv::Size(size.width, size.height), 0, 0, cv::INTER_LINEAR);
+    return out;
+  }
+  out.create(size.height, size.width, source.type());
+  for (int y = 0; y < size.height; y += source.rows)
+    for (int x = 0; x < size.width; x += source.cols) {
+      const cv::Rect part(0, 0, std::min(source.cols, size.width - x), std::min(source.rows, size.height - y));
+      source(part).copyTo(out(cv::Rect(x, y, part.width, part.height)));
+    }
+  return out;
+}
+
 // Every group: OpenCV first, then every preset on every backend (reference and opencl, single-
 // threaded or on the device, in the group of the first --threads value only).
 void time_groups(Timing& t, const cv::Mat& left_source, const cv::Mat& right_source) {
@@ -683,9 +702,7 @@ void time_groups(Timing& t, const cv::Mat& left_source, const cv::Mat& right_sou
               "median_ms", "p95_ms", "fps", "x BM", "frames");
   std::fflush(stdout);
   for (const FrameSize& size : setup.sizes) {
-    cv::Mat left, right;
-    cv::resize(left_source, left, cv::Size(size.width, size.height), 0, 0, cv::INTER_LINEAR);
-    cv::resize(right_source, right, cv::Size(size.width, size.height), 0, 0, cv::INTER_LINEAR);
+    const cv::Mat left = fit_to(left_source, size, setup.tile), right = fit_to(right_source, size, setup.tile);
     for (const int num_disparities : setup.disparity_counts) {
       const std::vector<Peer> peers = make_peers(0, num_disparities);
       for (std::size_t ti = 0; ti < setup.thread_settings.size(); ++ti) {
@@ -902,6 +919,7 @@ Json settings_json(const RunSetup& setup) {
   j.set("min_frames", setup.frames);
   j.set("min_time_s", setup.min_time_s);
   j.set("left_image", setup.left_path);
+  j.set("fit", setup.tile ? "tile" : "stretch");
   j.set("right_image", setup.right_path);
   return j;
 }
@@ -1015,6 +1033,11 @@ BenchCommand::BenchCommand(CLI::App& parent)
   app.add_option("--data", data_, "folder of the sample pair imL.png, imR.png (or a data folder with tsukuba/)");
   app.add_option("--image-left", image_left_, "left image to time on, instead of the sample pair");
   app.add_option("--image-right", image_right_, "right image to time on, instead of the sample pair");
+  app.add_option("--fit", fit_,
+                 "how the pair becomes each size: stretch (resized) or tile (repeated at its own size, so that "
+                 "disparities and texture per pixel stay the same at every size)")
+      ->check(CLI::IsMember({"stretch", "tile"}))
+      ->capture_default_str();
   app.add_option("--load", load_,
                  "busy threads of another process during the timing (0 = none): timings on a loaded CPU")
       ->check(CLI::Range(0, 4096))
@@ -1062,6 +1085,7 @@ void BenchCommand::run() const {
   setup.frames = frames_;
   setup.min_time_s = min_time_s_;
   setup.load = load_;
+  setup.tile = fit_ == "tile";
   print_header(setup);
 
   Progress progress(progress_steps(setup));

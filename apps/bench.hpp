@@ -34,6 +34,7 @@ class BenchCommand {
   int warmup_ = 5;
   double min_time_s_ = 0.5;
   std::string json_, data_, image_left_, image_right_;
+  std::string fit_ = "stretch";  // --fit
   // Hidden: measure one matcher's memory in this fresh process and print it (see bench.cpp).
   int load_ = 0;
   std::string memory_probe_;

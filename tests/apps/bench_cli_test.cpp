@@ -336,6 +336,29 @@ TEST_F(BenchCli, BadListsFailClearly) {
   expect_usage_error("--threads 1,2,1 --json b.json", "--threads: 1 is given twice");
   expect_usage_error("--backend gpu --json b.json", "--backend: unknown backend 'gpu'");
   expect_usage_error("--backend cpu,reference,cpu --json b.json", "--backend: cpu is given twice");
+  expect_usage_error("--fit crop --json b.json", "--fit: crop not in {stretch,tile}");
+}
+
+// --fit tile repeats the pair at its own size: at the pair's size it is the stretched frame
+// itself, and at twice the size in each direction the matcher searches as many candidates per
+// pixel (the same disparities and texture, but for the seams), where the stretched frame has
+// doubled disparities and blurred texture.
+TEST_F(BenchCli, TiledFramesKeepTheWorkPerPixel) {
+  const auto finest_candidates = [&](const std::string& args) {
+    const Result r = bench("--presets realtime --threads 1 --frames 1 --warmup 0 --min-time 0 --json b.json " + args);
+    EXPECT_EQ(r.status, 0) << r.output << stderr_text();
+    const JsonValue report = read_json(folder_ / "b.json");
+    EXPECT_EQ(report["settings"]["fit"].text, args.find("tile") != std::string::npos ? "tile" : "stretch");
+    for (const JsonValue& rec : report["records"].items)
+      if (rec["method"].text == "realtime") return rec["level_work"].items[0]["candidates"].number;
+    ADD_FAILURE() << "no realtime record";
+    return 0.0;
+  };
+  const double own = finest_candidates("--sizes 384x288");
+  EXPECT_EQ(finest_candidates("--sizes 384x288 --fit tile"), own);
+  const double tiled = finest_candidates("--sizes 768x576 --fit tile");
+  EXPECT_NEAR(tiled, own, 0.05 * own);
+  EXPECT_GT(std::abs(finest_candidates("--sizes 768x576") - own), 0.05 * own) << "stretched: other work per pixel";
 }
 
 }  // namespace
