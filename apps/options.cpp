@@ -1,6 +1,5 @@
 #include "options.hpp"
 
-#include <pthread.h>
 
 #include <cctype>
 #include <iostream>
@@ -255,23 +254,6 @@ MatcherOptions RunFlags::matcher_options(bool compute_right, bool compute_confid
 
 namespace {
 
-// How many of `wanted` threads (this one included) can be started now. libgomp ends the process
-// ("Thread creation failed") when it cannot start a thread of its team, which a memory limit
-// (ulimit -v: each thread reserves a stack) brings about; a team of threads that did start, with
-// the same default stack, and ended again shows what libgomp will be able to start. OMP_STACKSIZE
-// would give libgomp's threads another stack: then the count is an estimate.
-int startable_threads(int wanted) {
-  std::vector<pthread_t> started;
-  started.reserve(static_cast<std::size_t>(wanted));
-  for (int i = 1; i < wanted; ++i) {
-    pthread_t thread;
-    if (::pthread_create(&thread, nullptr, [](void*) -> void* { return nullptr; }, nullptr) != 0) break;
-    started.push_back(thread);
-  }
-  for (pthread_t thread : started) ::pthread_join(thread, nullptr);
-  return static_cast<int>(started.size()) + 1;
-}
-
 std::string mebibytes(std::size_t bytes) { return std::to_string((bytes + (1u << 20) - 1) >> 20) + " MiB"; }
 
 }  // namespace
@@ -279,14 +261,12 @@ std::string mebibytes(std::size_t bytes) { return std::to_string((bytes + (1u <<
 Matcher RunFlags::make_matcher(int width, int height, const StereoParams& params, bool compute_right,
                                bool compute_confidence) const {
   Matcher matcher = construct_matcher(width, height, params, compute_right, compute_confidence, threads);
-  if (matcher.backend() != Backend::Cpu || matcher.threads() <= 1) return matcher;
-  // The threads start at the first frame, after the matcher's memory is taken: the test comes now.
-  const int wanted = matcher.threads(), startable = startable_threads(wanted);
-  if (startable >= wanted) return matcher;
-  std::cerr << "mctstereo: note: only " << startable << " of " << wanted
-            << " threads could be started (memory limit?); matching with " << startable << "\n";
-  { const Matcher released = std::move(matcher); }  // its memory goes before the smaller one takes some
-  return construct_matcher(width, height, params, compute_right, compute_confidence, startable);
+  // The cpu backend starts its threads with the matcher and keeps those that started (a memory
+  // limit, ulimit -v, leaves no room for more stacks).
+  if (matcher.backend() == Backend::Cpu && threads > 1 && matcher.threads() < threads)
+    std::cerr << "mctstereo: note: only " << matcher.threads() << " of " << threads
+              << " threads could be started (memory limit?); matching with " << matcher.threads() << "\n";
+  return matcher;
 }
 
 Matcher RunFlags::construct_matcher(int width, int height, const StereoParams& params, bool compute_right,

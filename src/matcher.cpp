@@ -142,6 +142,7 @@ struct Matcher::Impl {
   Plane<float> out_float;
   std::vector<StageTime> timings;
   double slot_ms[kSlotCount] = {};
+  std::unique_ptr<detail::cpu::WorkerPool> pool;  // cpu backend with more than one thread
 
   Impl(int w, int h, const StereoParams& p, Backend b, const MatcherOptions& o)
       : width(w), height(h), params(p), backend(b), options(o) {
@@ -151,6 +152,10 @@ struct Matcher::Impl {
     resolve_backend();
     stages = backend == Backend::Reference ? &kReferenceStages : &kCpuStages;
     threads = backend == Backend::Reference ? 1 : (o.threads > 0 ? o.threads : default_threads());
+    if (backend == Backend::Cpu && threads > 1) {
+      pool = std::make_unique<detail::cpu::WorkerPool>(threads);
+      threads = pool->size();  // fewer when the system could not start them all
+    }
     need_right = p.lr_check || o.compute_right;
     want_confidence = p.sgm() || o.compute_confidence;
     if (backend == Backend::OpenCL) {
@@ -349,6 +354,7 @@ struct Matcher::Impl {
 
   // The confidence at the output size (pixels of the working scale replicated s x s).
   void write_confidence() {
+    const detail::cpu::PoolScope scope(pool.get());
     const int s = params.working_scale;
     detail::cpu::parallel_lines(
         height,
@@ -383,6 +389,7 @@ struct Matcher::Impl {
   }
 
   void write_float() {
+    const detail::cpu::PoolScope scope(pool.get());
     detail::cpu::parallel_lines(
         height,
         [&](int y0, int y1) {
@@ -428,9 +435,9 @@ struct Matcher::Impl {
       return;
     }
 #endif
-    // One parallel region for the whole frame: the stages hand their chunks to the team as tasks
-    // (src/cpu/parallel.hpp), so a descheduled thread stalls no stage.
-    detail::cpu::run_in_frame_region(host_threads(), [&] { run_frame(left, right); });
+    // The stages hand their chunks to the matcher's threads (src/cpu/parallel.hpp).
+    const detail::cpu::PoolScope scope(pool.get());
+    run_frame(left, right);
   }
 
   // The recipe of one frame on the host backends (reference, cpu).

@@ -736,14 +736,14 @@ void match(const CensusCodes& ref, const CensusCodes& other, const SearchRanges&
   // still hold the fixed buffers and one candidate's band: less is a driver bug, not an input.
   const std::size_t usable = scratch.bytes_per_thread < kAlignment ? 0 : scratch.bytes_per_thread - (kAlignment - 1);
   if (usable < kFixedBytes + kBandBytesPerCandidate) std::abort();
-  if (t_in_frame_region && omp_get_num_threads() > scratch.threads) std::abort();  // a slice per thread
+  if (t_pool && t_pool->size() > scratch.threads) std::abort();  // a scratch slice per thread
   // Tiles differ in cost (range widths vary with the prior), hence one tile per chunk, taken as
   // threads come free; every tile writes only its own pixels, so the result does not depend on
   // the thread count or the order.
   parallel_for(
       tiles, 1,
       [&](int t0, int t1) {
-        std::uint8_t* base = scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread;
+        std::uint8_t* base = scratch.data.get() + thread_slot() * scratch.bytes_per_thread;
         const auto aligned = (reinterpret_cast<std::uintptr_t>(base) + kAlignment - 1) / kAlignment * kAlignment;
         for (int t = t0; t < t1; ++t)
           HWY_DYNAMIC_DISPATCH(MatchTile)(job, t, reinterpret_cast<std::uint8_t*>(aligned), usable);

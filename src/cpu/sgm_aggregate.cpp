@@ -236,9 +236,9 @@ void AggregateAll(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, 
   const int column_block = block_lines(kColumnBlock, v.width, scratch.threads);
   const int row_blocks = (v.height + row_block - 1) / row_block;
   const int column_blocks = (v.width + column_block - 1) / column_block;
-  if (t_in_frame_region && omp_get_num_threads() > scratch.threads) std::abort();  // a slice per thread
+  if (t_pool && t_pool->size() > scratch.threads) std::abort();  // a scratch slice per thread
   const auto buffers = [&] {
-    return reinterpret_cast<std::uint16_t*>(scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread);
+    return reinterpret_cast<std::uint16_t*>(scratch.data.get() + thread_slot() * scratch.bytes_per_thread);
   };
   // Both horizontal paths of a block of rows, then both vertical ones of a block of columns:
   // the second path of each pair finds the block's costs and sums still in the L2 cache (a

@@ -183,12 +183,12 @@ void SgmCosts(const CensusCodes& left, const CensusCodes& right, const Plane<std
                            : words == 2 ? RowCostsFor<2>(shd_window)
                                         : RowCostsFor<3>(shd_window);
   const int cw = coarse ? coarse->width() : 1;
-  if (t_in_frame_region && omp_get_num_threads() > scratch.threads) std::abort();  // a slice per thread
+  if (t_pool && t_pool->size() > scratch.threads) std::abort();  // a scratch slice per thread
   parallel_for(
       h, 4,
       [&](int y0, int y1) {
         // Five int rows of the coarse width per thread (sgm_scratch_bytes holds five of the level's).
-        int* lo_c = reinterpret_cast<int*>(scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread);
+        int* lo_c = reinterpret_cast<int*>(scratch.data.get() + thread_slot() * scratch.bytes_per_thread);
         int *hi_c = lo_c + cw, *centre_c = hi_c + cw, *col_min = centre_c + cw, *col_max = col_min + cw;
         int last_cy = -1;  // the coarse row whose bands lo_c .. col_max hold, within this chunk
         for (int y = y0; y < y1; ++y) {

@@ -154,12 +154,12 @@ HWY_INLINE std::int16_t SelectLeft(const std::uint16_t* sum, int lo, int count, 
 void SgmSelect(const SgmVolume& v, const SgmSelectConfig& config, SgmScratch& scratch, Plane<std::int16_t>& left,
                Plane<std::int16_t>* right, Plane<std::uint8_t>* margin) {
   const int w = v.width, h = v.height;
-  if (t_in_frame_region && omp_get_num_threads() > scratch.threads) std::abort();  // a slice per thread
+  if (t_pool && t_pool->size() > scratch.threads) std::abort();  // a scratch slice per thread
   parallel_for(
       h, 4,
       [&](int y0, int y1) {
         auto* rows =
-            reinterpret_cast<std::uint16_t*>(scratch.data.get() + omp_get_thread_num() * scratch.bytes_per_thread);
+            reinterpret_cast<std::uint16_t*>(scratch.data.get() + thread_slot() * scratch.bytes_per_thread);
         for (int y = y0; y < y1; ++y) {
           // Row pointers and the stride in locals: the margin stores go through a byte pointer, which
           // may alias anything, and would make the compiler reload them at every pixel.

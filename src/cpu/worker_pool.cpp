@@ -1,0 +1,106 @@
+#include "cpu/worker_pool.hpp"
+
+#include <system_error>
+
+#if defined(__x86_64__) || defined(__i386__)
+#include <immintrin.h>
+#endif
+
+namespace mctstereo::detail::cpu {
+namespace {
+
+thread_local int t_slot = 0;
+
+// How long a thread polls before it sleeps. Waiting workers poll for about 50 us: the stages of a
+// frame follow each other within microseconds, and a futex wake-up costs more than that gap. The
+// caller polls for its last chunks a little longer, then yields its CPU (to a preempted worker
+// that holds a chunk, if it shares the core) and finally sleeps.
+constexpr int kWorkerPolls = 2000;
+constexpr int kCallerPolls = 4000;
+
+inline void cpu_relax() {
+#if defined(__x86_64__) || defined(__i386__)
+  _mm_pause();
+#elif defined(__aarch64__)
+  asm volatile("yield" ::: "memory");
+#endif
+}
+
+}  // namespace
+
+int WorkerPool::slot() { return t_slot; }
+
+WorkerPool::WorkerPool(int threads) {
+  for (int s = 1; s < threads; ++s) {
+    try {
+      workers_.emplace_back(&WorkerPool::worker_main, this, s);
+    } catch (const std::system_error&) {
+      break;  // fewer threads, as OpenMP does when it cannot start more
+    }
+  }
+}
+
+WorkerPool::~WorkerPool() {
+  stop_.store(true, std::memory_order_release);
+  published_.fetch_add(1, std::memory_order_release);
+  published_.notify_all();
+  for (std::thread& t : workers_) t.join();
+}
+
+void WorkerPool::run(int chunks, ChunkFn fn, const void* context) {
+  if (chunks <= 0) return;
+  if (workers_.empty() || chunks == 1) {
+    for (int c = 0; c < chunks; ++c) fn(context, c);
+    return;
+  }
+  fn_.store(fn, std::memory_order_relaxed);
+  context_.store(context, std::memory_order_relaxed);
+  chunks_.store(chunks, std::memory_order_relaxed);
+  done_.store(0, std::memory_order_relaxed);
+  const std::uint32_t g = ++generation_;
+  state_.store(static_cast<std::uint64_t>(g) << 32, std::memory_order_release);
+  published_.store(g, std::memory_order_release);
+  published_.notify_all();  // a system call only when a worker sleeps
+  work(g);
+  for (int polls = 0;; ++polls) {
+    const int done = done_.load(std::memory_order_acquire);
+    if (done == chunks) return;
+    if (polls < kCallerPolls) cpu_relax();
+    else if (polls < 2 * kCallerPolls) std::this_thread::yield();
+    else done_.wait(done, std::memory_order_acquire);
+  }
+}
+
+void WorkerPool::work(std::uint32_t generation) {
+  std::uint64_t s = state_.load(std::memory_order_acquire);
+  for (;;) {
+    if (static_cast<std::uint32_t>(s >> 32) != generation) return;
+    const int chunk = static_cast<int>(s & 0xFFFFFFFFu);
+    const int chunks = chunks_.load(std::memory_order_relaxed);
+    const ChunkFn fn = fn_.load(std::memory_order_relaxed);
+    const void* context = context_.load(std::memory_order_relaxed);
+    if (chunk >= chunks) return;
+    if (!state_.compare_exchange_weak(s, s + 1, std::memory_order_acq_rel, std::memory_order_acquire)) continue;
+    fn(context, chunk);
+    if (done_.fetch_add(1, std::memory_order_acq_rel) + 1 == chunks) done_.notify_one();
+    s = state_.load(std::memory_order_acquire);
+  }
+}
+
+void WorkerPool::worker_main(int slot) {
+  t_slot = slot;
+  std::uint32_t seen = 0;
+  for (;;) {
+    std::uint32_t g = published_.load(std::memory_order_acquire);
+    for (int polls = 0; g == seen; ++polls) {
+      if (polls < kWorkerPolls) cpu_relax();
+      else published_.wait(seen, std::memory_order_acquire);
+      g = published_.load(std::memory_order_acquire);
+    }
+    if (stop_.load(std::memory_order_acquire)) return;
+    seen = g;
+    work(g);
+  }
+}
+
+}  // namespace mctstereo::detail::cpu

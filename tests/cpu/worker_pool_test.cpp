@@ -1,0 +1,89 @@
+// The cpu backend's worker pool and the chunked loops over it: every chunk runs exactly once per
+// job, on a slot no other thread holds at the same time, across many jobs in a row; a stalled
+// chunk holds up only its own job's end; a pool whose threads cannot all start is smaller, not
+// broken.
+#include <atomic>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "cpu/parallel.hpp"
+#include "cpu/worker_pool.hpp"
+
+namespace mctstereo::detail::cpu {
+namespace {
+
+// Each chunk counts itself and marks its slot busy while it runs: two threads on one slot at once
+// (shared per-thread scratch) would find the mark set.
+struct Tally {
+  std::vector<std::atomic<int>> runs;
+  std::vector<std::atomic<int>> busy;
+  std::atomic<int> slot_clashes{0}, bad_slots{0};
+  Tally(int chunks, int slots) : runs(chunks), busy(slots) {}
+};
+
+void count_chunk(const void* context, int chunk) {
+  auto& t = *static_cast<Tally*>(const_cast<void*>(context));
+  const int slot = WorkerPool::slot();
+  if (slot < 0 || slot >= static_cast<int>(t.busy.size())) {
+    ++t.bad_slots;
+    return;
+  }
+  if (t.busy[slot].exchange(1) != 0) ++t.slot_clashes;
+  for (volatile int spin = 0; spin < (chunk % 7) * 200; ++spin) {
+  }
+  ++t.runs[chunk];
+  t.busy[slot].store(0);
+}
+
+TEST(WorkerPool, EveryChunkRunsOnceOnAFreeSlotInEveryJob) {
+  for (const int threads : {1, 2, 3}) {
+    WorkerPool pool(threads);
+    ASSERT_EQ(pool.size(), threads);
+    for (int job = 0; job < 2000; ++job) {
+      const int chunks = job % 37;  // 0 and 1 included: no chunk, and one run inline
+      Tally tally(chunks, pool.size());
+      pool.run(chunks, count_chunk, &tally);
+      for (int c = 0; c < chunks; ++c) ASSERT_EQ(tally.runs[c].load(), 1) << "job " << job << " chunk " << c;
+      ASSERT_EQ(tally.slot_clashes.load(), 0) << "job " << job;
+      ASSERT_EQ(tally.bad_slots.load(), 0) << "job " << job;
+    }
+  }
+}
+
+// A chunk that waits for another chunk of the same job can finish only if some other thread takes
+// that chunk: the pool hands chunks to any free thread, the caller's included.
+TEST(WorkerPool, ChunksOfOneJobRunConcurrently) {
+  WorkerPool pool(2);
+  std::atomic<int> arrived{0};
+  const auto meet = [](const void* context, int) {
+    auto& a = *static_cast<std::atomic<int>*>(const_cast<void*>(context));
+    ++a;
+    while (a.load() < 2) std::this_thread::yield();
+  };
+  pool.run(2, meet, &arrived);
+  EXPECT_EQ(arrived.load(), 2);
+}
+
+TEST(ParallelFor, CoversTheRangeOnceWithAndWithoutAPool) {
+  for (const bool with_pool : {false, true}) {
+    WorkerPool pool(2);
+    const PoolScope scope(with_pool ? &pool : nullptr);
+    for (const int n : {0, 1, 5, 64, 481}) {
+      for (const int grain : {1, 3, 64, 1000}) {
+        std::vector<std::atomic<int>> seen(n);
+        parallel_for(n, grain, [&](int begin, int end) {
+          EXPECT_LE(end - begin, grain);
+          for (int i = begin; i < end; ++i) ++seen[i];
+        });
+        for (int i = 0; i < n; ++i) ASSERT_EQ(seen[i].load(), 1) << "n " << n << " grain " << grain << " i " << i;
+      }
+    }
+    EXPECT_EQ(stage_threads(), with_pool ? 2 : omp_get_max_threads());
+  }
+  EXPECT_EQ(t_pool, nullptr) << "the scope gives the previous pool back";
+}
+
+}  // namespace
+}  // namespace mctstereo::detail::cpu
