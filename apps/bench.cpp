@@ -9,7 +9,7 @@
 //
 // The JSON report (--json), an object:
 //   "settings": {
-//     "cpu_model", "cores_online", "load_threads" (--load), "gomp_spincount" and
+//     "cpu_model", "cpu_mhz" (/proc/cpuinfo's clock, 0 where none), "cores_online", "load_threads" (--load), "gomp_spincount" and
 //     "omp_wait_policy" (the environment's, "" when unset), "simd_target" (of the cpu backend; "scalar" when only the
 //     reference backend ran), "openmp_max_threads" (threads of --threads 0), "compiler",
 //     "build_type", "date" (UTC, ISO 8601), "mctstereo_version", "opencv_version",
@@ -883,6 +883,7 @@ FrameSize largest_size(const RunSetup& setup) {
 Json settings_json(const RunSetup& setup) {
   Json j = Json::object();
   j.set("cpu_model", setup.settings.cpu);
+  j.set("cpu_mhz", cpu_mhz());
   j.set("cores_online", setup.settings.cores_online);
   j.set("load_threads", setup.load);
   const char* spin = std::getenv("GOMP_SPINCOUNT");

@@ -54,9 +54,10 @@ BENCH_THESIS = "bench_thesis.json"
 BENCH_BACKENDS = "bench_backends.json"
 BENCH_OPENCL = "bench_opencl.json"
 BENCH_LOADED = "bench_loaded.json"
+BENCH_SCALING = "bench_scaling.json"
 # The step of scripts/measure_results.sh that writes each file, for the error message.
 INPUT_STEPS = {EVAL_2003: 1, EVAL_2005: 2, EVAL_RADIOMETRIC: 3, BENCH_HEADLINE: 4, BENCH_THESIS: 5, BENCH_BACKENDS: 6,
-               BENCH_OPENCL: 7, BENCH_LOADED: 8}
+               BENCH_OPENCL: 7, BENCH_LOADED: 8, BENCH_SCALING: 9}
 
 THESIS_VARIANTS = [("mct-full", "MCT-full"), ("mr-mct-full", "MR-MCT-full"), ("mr-mct-5x5", "MR-MCT-5x5")]
 SCENE_ORDER = ["tsukuba", "venus", "teddy", "cones", "aloe", "art"]
@@ -298,6 +299,9 @@ class BenchRun:
         self.flags = {k: s.num(k) for k in ["warmup_frames", "min_frames", "min_time_s"]}
         self.images = (s.text("left_image"), s.text("right_image"))
         self.load_threads = s.whole("load_threads") if s.has("load_threads") else 0
+        self.cpu_mhz = s.num("cpu_mhz") if s.has("cpu_mhz") else 0.0
+        self.fit = s.text("fit") if s.has("fit") else "stretch"
+        self.simd_target = s.text("simd_target") if s.has("simd_target") else ""
         self.records = []
         for r in doc.array("records"):
             rec = {"method": r.text("method"), "kind": r.text("kind"), "width": r.whole("width"),
@@ -313,6 +317,9 @@ class BenchRun:
                 st = r.obj("stage_median_ms")
                 # Runs from before the weighted median had a slot of its own hold it in refine.
                 rec["stages"] = {k: st.num(k) if k != "wmedian" or st.has(k) else 0.0 for k in STAGES + ["frame"]}
+            rec["work"] = [{"width": w.whole("width"), "height": w.whole("height"), "views": w.whole("views"),
+                            "candidates": w.num("candidates")} for w in r.array("level_work")] \
+                if r.has("level_work") else []
             self.records.append(rec)
         m = doc.obj("memory")
         self.peak_resident = m.num("peak_resident_bytes")
@@ -351,6 +358,8 @@ class BenchRun:
                  "--backend " + ",".join(self.backends), "--presets " + ",".join(self.presets),
                  f"--frames {number(self.flags['min_frames'])}", f"--warmup {number(self.flags['warmup_frames'])}",
                  f"--min-time {number(self.flags['min_time_s'])}"]
+        if self.fit == "tile":
+            parts.append("--fit tile")
         if self.load_threads > 0:
             parts.append(f"--load {self.load_threads}")
         parts.append(f"--json docs/results/{file_name}")
@@ -1328,10 +1337,11 @@ def speed_loaded(report, bench, file_name, load_threads):
     report.add("### On a loaded CPU")
     report.add(f"The same methods while {load_threads} threads of another process keep the cores busy (`--load "
                f"{load_threads}`), as on a robot or an AR device whose cores run other work: each method with 1 and "
-               "with 2 threads in the same run. OpenMP's threads wait at a barrier with a short spin "
-               "(`GOMP_SPINCOUNT=10000`, which the program sets unless the user has set one): with libgomp's "
-               "default spin, 2 threads fall far behind 1 here, because the waiting thread spins away the time "
-               "slices of the thread it waits for.")
+               "with 2 threads in the same run. The cpu backend's stages hand their rows out in small chunks to the "
+               "matcher's own threads, and a stage waits only for the chunks that have started, never for a thread "
+               "that the OS has descheduled (src/cpu/worker_pool.hpp). With an OpenMP parallel loop per stage, each of "
+               "the ~40 loops of a frame ended in a barrier for both threads, and under this load 2 threads ran "
+               "several times slower than 1.")
     report.add(code(bench.command(file_name)))
     report.add(machine_line(bench.settings, bench.file, with_threads=False))
     if len(bench.thread_settings) < 2:
@@ -1351,6 +1361,81 @@ def speed_loaded(report, bench, file_name, load_threads):
                              ratio(b["ratio"])])
     report.add(table(["size", "disparities", "method", f"{t1} thread ms", f"{t2} threads ms",
                       f"{t2} threads speed-up", f"x BM ({t2} threads)"], rows, ["---", "---:", "---"] + ["---:"] * 4))
+
+
+# The box kernel's vector ALU work per pixel-disparity pair, as `bench` models it (apps/bench.cpp,
+# box_alu_bound): 15.5 vector operations per vector of int16 lanes of one candidate.
+def box_alu_bound(target):
+    if target.startswith("AVX3"):
+        return 15.5 / (32 * 2)
+    if target == "AVX2":
+        return 15.5 / (16 * 3)
+    if target in ("SSE4", "SSSE3", "NEON"):
+        return 15.5 / (8 * 2)
+    return 0.0
+
+
+def speed_scaling(report, bench, file_name):
+    report.add("### Cost per pixel, from 640x480 to 4K, and the roofline")
+    report.add("The pair repeated at its own size to fill each frame (`--fit tile`), so that every size has the "
+               "disparities and the texture of the pair: the time per pixel then shows what the frame size itself "
+               "costs. (Stretched, as the other tables are, a 4K frame is the 384x288 pair magnified 10 x: its "
+               "disparities exceed a 64-disparity range and its texture is a blur, and the matcher searches wider "
+               "bands there.)")
+    report.add(code(bench.command(file_name)))
+    report.add(machine_line(bench.settings, bench.file, with_threads=False))
+    small = min(bench.sizes, key=lambda s: s[0] * s[1])
+    rows = []
+    for m in bench.presets:
+        for d in bench.disparities:
+            for t in bench.thread_settings:
+                base = bench.find(m, small, d, t)
+                if base is None:
+                    continue
+                base_ns = base["median_ms"] * 1e6 / (small[0] * small[1])
+                for size in bench.sizes:
+                    r = bench.find(m, size, d, t)
+                    if r is None:
+                        continue
+                    ns = r["median_ms"] * 1e6 / (size[0] * size[1])
+                    rows.append([f"`{m}`", size_text(size), d, r["threads"], ms(r["median_ms"]), f"{ns:.2f}",
+                                 f"{ns / base_ns:.2f}", ratio(r["ratio"])])
+    report.add(table(["preset", "size", "disparities", "threads", "frame ms", "ns per pixel",
+                      f"per pixel / {size_text(small)}", "x BM"], rows, ["---", "---", "---:", "---:"] + ["---:"] * 4))
+    mhz = bench.cpu_mhz
+    bound = box_alu_bound(bench.simd_target)
+    rows = []
+    for r in bench.records:
+        if not r.get("work") or r["backend"] != "cpu":
+            continue
+        pairs = sum(w["width"] * w["height"] * w["views"] * w["candidates"] for w in r["work"])
+        pixels = r["width"] * r["height"]
+        thread_ns = r["stages"]["match"] * 1e6 * r["threads"]
+        ns_pair = thread_ns / pairs if pairs else 0.0
+        cycles = ns_pair * mhz * 1e-3
+        rows.append([f"`{r['method']}`", size_text((r["width"], r["height"])), r["num_disparities"], r["threads"],
+                     f"{r['work'][0]['candidates']:.2f}", f"{pairs / pixels:.1f}", f"{thread_ns / pixels:.2f}",
+                     f"{cycles:.2f}", f"{bound:.2f}" if bound else "-", f"{cycles / bound:.1f}" if bound else "-"])
+    report.add(f"The match stage against the machine's limit. Candidates: disparities examined per pixel and view at "
+               f"the finest level (`Matcher::level_work()`); pairs/px: pixel-disparity pairs of all levels and both "
+               f"views per input pixel; thread ns/px: the stage's median time times its threads, per input pixel; "
+               f"cycles/pair at the clock /proc/cpuinfo gives ({mhz:.0f} MHz); bound: the vector ALU work of the box "
+               f"kernel per pair on {bench.simd_target or 'this target'} (XOR, popcount and narrowing of the census "
+               "word, the running vertical sum, the 5-tap horizontal sum, the winner and runner-up updates: 15.5 "
+               "operations per vector of int16 lanes, on two 512-bit ALU ports).")
+    report.add(table(["preset", "size", "disparities", "threads", "candidates", "pairs/px", "thread ns/px",
+                      "cycles/pair", "bound", "cycles / bound"], rows,
+                     ["---", "---", "---:", "---:"] + ["---:"] * 6))
+    report.add("Where each stage stands. **Match** runs several times above the ALU bound of its arithmetic: at the "
+               "finest level a pixel has 3 to 5 candidates (radius 1 around the coarse prior), fewer than the lanes of "
+               "a vector, so the per-pixel work around the candidates (the search range from the 3x3 prior, the "
+               "rectangle of a tile that holds a candidate, the sub-pixel fit and the uniqueness test, the right view "
+               "matched only for the LR check) costs more than the popcounts; the arithmetic bound would need the "
+               "whole band of a tile to be as narrow as its pixels' ranges. **Census** is an ALU stage (24 compares "
+               "per pixel in byte lanes) far from any limit but small. **Refine** (median, LR check, fill) and "
+               "**gray**/**pyramid** are passes over whole planes, bound by memory traffic once a plane leaves the "
+               "L2 cache: their time per pixel is what grows at 4K. Band SGM (`balanced`, `quality`) is bound by "
+               "memory: the path sums read and write the cost volume four times per frame.")
 
 
 def speed_opencl(report, bench, file_name):
@@ -1510,11 +1595,12 @@ def build(results_dir, images_dir, output, previews_dir):
     opencl = BenchRun(docs[BENCH_OPENCL])
     loaded = BenchRun(docs[BENCH_LOADED])
     loaded_threads = loaded.load_threads
+    scaling = BenchRun(docs[BENCH_SCALING])
 
     report = Report(results_dir, images_dir, output, previews_dir)
     runs = [(EVAL_2003, ev2003.settings), (EVAL_2005, ev2005.settings), (EVAL_RADIOMETRIC, radio.settings),
             (BENCH_HEADLINE, headline.settings), (BENCH_THESIS, thesis.settings), (BENCH_BACKENDS, backends.settings),
-            (BENCH_OPENCL, opencl.settings), (BENCH_LOADED, loaded.settings)]
+            (BENCH_OPENCL, opencl.settings), (BENCH_LOADED, loaded.settings), (BENCH_SCALING, scaling.settings)]
     header(report, runs)
     quality_2003(report, ev2003)
     quality_2005(report, ev2005)
@@ -1522,6 +1608,7 @@ def build(results_dir, images_dir, output, previews_dir):
     speed_headline(report, headline, BENCH_HEADLINE, ev2003)
     d, t = speed_resolution(report, thesis, BENCH_THESIS)
     speed_stages(report, thesis, BENCH_THESIS, d, t)
+    speed_scaling(report, scaling, BENCH_SCALING)
     speed_backends(report, backends, BENCH_BACKENDS)
     speed_opencl(report, opencl, BENCH_OPENCL)
     speed_loaded(report, loaded, BENCH_LOADED, loaded_threads)
@@ -1530,7 +1617,7 @@ def build(results_dir, images_dir, output, previews_dir):
                               (ev2005, "middlebury2005", "Middlebury 2005/2006")])
     losses_section(report)
     skipped = [(f, x) for f, run in [(BENCH_HEADLINE, headline), (BENCH_THESIS, thesis), (BENCH_BACKENDS, backends),
-                                     (BENCH_OPENCL, opencl), (BENCH_LOADED, loaded)]
+                                     (BENCH_OPENCL, opencl), (BENCH_LOADED, loaded), (BENCH_SCALING, scaling)]
                for x in run.skipped]
     if skipped:
         report.add("Not measured (from the files' `skipped`): " + "; ".join(

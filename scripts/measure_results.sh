@@ -81,4 +81,9 @@ run "$binary" bench --data data --sizes thesis --num-disparities 64 --threads 2 
 run "$binary" bench --data data --sizes 640x480 --num-disparities 64 --threads 1,2 --load 2 \
   --presets realtime,balanced,quality --json "$results/bench_loaded.json"
 
+# 9: the cost per pixel from 640x480 to 4K on frames of the pair repeated at its own size, and the
+# matching work per pixel-disparity pair (the roofline).
+run "$binary" bench --data data --sizes 640x480,3840x2160 --fit tile --num-disparities 64,256 --threads 1,2 \
+  --presets realtime --json "$results/bench_scaling.json"
+
 run "$python" scripts/make_results.py --results "$results" --previews "$previews"
