@@ -15,7 +15,7 @@ namespace mctstereo {
 /// Where the pipeline runs.
 enum class Backend {
   Reference,  ///< scalar, one plain loop per stage: the specification in code; single thread
-  Cpu,        ///< SIMD (Highway, dispatched at run time) and OpenMP threads over row bands
+  Cpu,        ///< SIMD (Highway, dispatched at run time) and the matcher's threads over chunks of rows
   OpenCL,     ///< OpenCL kernels on a GPU or any other OpenCL device; equals the others bit for bit
   Auto,       ///< resolved when the matcher is built: opencl on a GPU if there is one, else cpu
 };
@@ -31,8 +31,11 @@ inline constexpr int kDisparityScale = 1 << kDisparityShift;
 
 /// Options of a matcher that do not change its result.
 struct MatcherOptions {
-  /// OpenMP threads of the cpu backend; 0 = the OpenMP default (OMP_NUM_THREADS, else all cores),
-  /// at most the machine's hardware threads. Ignored by reference.
+  /// Threads of the cpu backend, the caller's included; 0 = the OpenMP default (OMP_NUM_THREADS,
+  /// else all cores), at most the machine's hardware threads. The matcher starts the others when it
+  /// is built and keeps them until it is destroyed; each stage hands its rows out to them in small
+  /// chunks and waits only for chunks that started, never for a thread that the OS has put off the
+  /// CPU. Fewer when the system cannot start them all (see threads()). Ignored by reference.
   int threads = 0;
   /// Also produce the refined right-view disparity map (the LR check computes a raw one anyway).
   bool compute_right = false;
@@ -122,7 +125,8 @@ class Matcher {
   /// The OpenCL device of the opencl backend, "NAME (PLATFORM)"; "" for the other backends.
   std::string device_name() const;
   /// Threads the cpu backend uses (1 for reference; for opencl, the host threads of speckle
-  /// removal, which runs on the host).
+  /// removal, which runs on the host). On the cpu backend, fewer than MatcherOptions::threads when
+  /// the system could not start them all (a memory limit).
   int threads() const;
   /// SIMD target chosen at run time ("AVX3", "AVX2", "NEON", ... ; "scalar" for reference; for
   /// opencl, the host's, used by speckle removal).
