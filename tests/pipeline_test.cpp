@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <new>
+#include <thread>
 
 #include "mctstereo/matcher.hpp"
 #include "pipeline_cases.hpp"
@@ -77,6 +78,39 @@ TEST(Pipeline, EveryPresetEqualAcrossSimdTargets) {
     for_each_simd_target([&](const std::string& target) {
       EXPECT_EQ(describe_difference(run(pair, p, Backend::Cpu, 2), ref, 130), "") << name << " on " << target;
     });
+  }
+}
+
+// Matchers are independent: several at once, each on its own thread of the caller with two OpenMP
+// threads of its own, give the reference's maps frame after frame (under ThreadSanitizer, the
+// tsan preset, this is also the check that they share nothing unguarded).
+TEST(Pipeline, SeveralMatchersAtOnceOnThreadsOfTheCallerEqualTheReference) {
+  const std::vector<std::string> names = {"realtime", "balanced", "mr-mct-5x5"};
+  const StereoPair pair = textured_pair(97, 41, 14, 21);
+  std::vector<StereoParams> params;
+  std::vector<std::vector<std::int16_t>> expected;
+  for (const std::string& name : names) {
+    StereoParams p = preset(name);
+    p.num_disparities = 16;
+    params.push_back(p);
+    expected.push_back(run(pair, p, Backend::Reference, 1));
+  }
+  std::vector<std::vector<std::string>> differences(names.size());
+  std::vector<std::thread> threads;
+  for (std::size_t i = 0; i < names.size(); ++i)
+    threads.emplace_back([&, i] {
+      MatcherOptions options;
+      options.threads = 2;
+      Matcher m(pair.left.width(), pair.left.height(), params[i], Backend::Cpu, options);
+      for (int frame = 0; frame < 3; ++frame) {
+        m.compute(pair.left_view(), pair.right_view());
+        differences[i].push_back(describe_difference(pixels(m.disparity_q4()), expected[i], 97));
+      }
+    });
+  for (std::thread& t : threads) t.join();
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    ASSERT_EQ(differences[i].size(), 3u) << names[i];
+    for (const std::string& d : differences[i]) EXPECT_EQ(d, "") << names[i];
   }
 }
 
