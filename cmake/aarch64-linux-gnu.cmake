@@ -11,7 +11,11 @@ set(CMAKE_CXX_COMPILER aarch64-linux-gnu-g++)
 set(CMAKE_LIBRARY_ARCHITECTURE aarch64-linux-gnu)
 set(ENV{PKG_CONFIG_LIBDIR} "/usr/lib/aarch64-linux-gnu/pkgconfig:/usr/share/pkgconfig")
 set(ENV{PKG_CONFIG_PATH} "")
-# ctest and gtest_discover_tests run the programs through qemu; -L finds the target's loader and C
-# library (binfmt_misc need not be registered, as in a container).
+# ctest and gtest_discover_tests run the programs through qemu (binfmt_misc need not be registered,
+# as in a container): -L takes the loader of the cross toolchain's C library, and LD_LIBRARY_PATH
+# the rest of that library, so that the loader never meets the multiarch libc6:arm64 of
+# /lib/aarch64-linux-gnu, another build (a loader and a C library of two builds hang in
+# pthread_create). Highway's arm64 library still comes from /lib/aarch64-linux-gnu.
 find_program(MCTSTEREO_QEMU_AARCH64 qemu-aarch64-static REQUIRED)
-set(CMAKE_CROSSCOMPILING_EMULATOR "${MCTSTEREO_QEMU_AARCH64};-L;/usr/aarch64-linux-gnu;-cpu;max")
+set(CMAKE_CROSSCOMPILING_EMULATOR
+    "${MCTSTEREO_QEMU_AARCH64};-L;/usr/aarch64-linux-gnu;-E;LD_LIBRARY_PATH=/usr/aarch64-linux-gnu/lib;-cpu;max")
