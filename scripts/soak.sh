@@ -33,9 +33,10 @@ while kill -0 "$pid" 2> /dev/null; do
   rss=$(awk '/^VmRSS:/ {print $2}' "/proc/$pid/status" 2> /dev/null || true)
   fds=$(ls "/proc/$pid/fd" 2> /dev/null | wc -l || true)
   # Completed maps only: temporaries are hidden names beginning with a dot.
-  done_now=$(find "$work/out" -name 'd*.png' | wc -l)
-  find "$work/out" -name 'd*.png' -delete
-  written=$((written + done_now))
+  # Counted and deleted from one listing: a map written in between is counted at the next sample.
+  mapfile -t maps < <(find "$work/out" -name 'd*.png')
+  [ "${#maps[@]}" = 0 ] || rm -f "${maps[@]}"
+  written=$((written + ${#maps[@]}))
   [ -n "$rss" ] && printf '%8d %8d %10d %4d\n' $((SECONDS - start)) "$written" "$rss" "$fds" >> "$work/samples"
   sleep 1
 done
