@@ -1,5 +1,9 @@
 #include "calibration.hpp"
 
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <opencv2/calib3d.hpp>
 
 #include <algorithm>
@@ -112,6 +116,57 @@ void check_storage_nesting(const std::string& path, const std::string& text) {
                                                      : "indented by more than " + std::to_string(kMaxStorageIndent) +
                                                            " characters") +
                        "); a calibration nests a few levels");
+}
+
+// A FileStorage file is text: a NUL or another control character (but tab, line feed, carriage
+// return) means a binary or damaged file, and OpenCV 4.6's XML parser reads past a NUL inside its
+// header into a null pointer (found by fuzz/fuzz_calibration.cpp).
+void check_storage_text(const std::string& path, const std::string& text) {
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    if (c < 0x20 && c != '\t' && c != '\n' && c != '\r') {
+      char code[8];
+      std::snprintf(code, sizeof code, "0x%02x", c);
+      throw RuntimeError("calibration " + in_quotes(path) + ": byte " + std::to_string(i) + " is " + code +
+                         ", a control character: a YAML, JSON or XML calibration is text");
+    }
+  }
+}
+
+// OpenCV 4.6's FileStorage parsers loop for ever on some malformed files (such as "%YAML:1.0",
+// "   s:3", "ncv-" on three lines) and read through null pointers on others (found by
+// fuzz/fuzz_calibration.cpp). So each file is parsed first in a child process under a time limit;
+// the file is parsed again here only when the child came back. A child that crashed or ran out
+// of time is an error naming the file; any other outcome lets the parse below give its own message.
+constexpr unsigned kStorageParseSeconds = 5;
+
+void check_storage_parses(const std::string& path) {
+  std::fflush(nullptr);  // nothing buffered is written twice
+  const pid_t child = ::fork();
+  if (child < 0) return;  // no process to spare: the parse below runs unguarded, as it would anyway
+  if (child == 0) {
+    // Default actions: the process ends on a fault or the alarm, whatever handlers it inherited.
+    for (const int sig : {SIGALRM, SIGSEGV, SIGBUS, SIGFPE, SIGILL, SIGABRT}) ::signal(sig, SIG_DFL);
+    ::alarm(kStorageParseSeconds);
+    int status = 1;
+    try {
+      cv::FileStorage storage(path, cv::FileStorage::READ);
+      status = storage.isOpened() ? 0 : 1;
+    } catch (...) {
+    }
+    ::_exit(status);  // no exit handlers of the parent (temporary files, sanitizers) run here
+  }
+  int status = 0;
+  while (::waitpid(child, &status, 0) < 0) {
+    if (errno != EINTR) return;
+  }
+  if (!WIFSIGNALED(status)) return;
+  const int sig = WTERMSIG(status);
+  if (sig == SIGALRM)
+    throw RuntimeError("calibration " + in_quotes(path) + ": OpenCV's FileStorage parser did not finish within " +
+                       std::to_string(kStorageParseSeconds) + " s (a malformed YAML, JSON or XML file)");
+  throw RuntimeError("calibration " + in_quotes(path) + ": OpenCV's FileStorage parser crashed on it (signal " +
+                     std::to_string(sig) + ", " + ::strsignal(sig) + "): a malformed YAML, JSON or XML file");
 }
 
 // A number for messages, short whatever its size.
@@ -267,6 +322,10 @@ class StorageReader {
         file_errors.fail("cannot parse it as an OpenCV FileStorage file (YAML, XML, JSON): malformed");
       }
       if (!storage.isOpened()) file_errors.fail("cannot open it as an OpenCV FileStorage file (YAML, XML, JSON)");
+      // Keys are looked up in the top-level map; OpenCV throws for a file whose top level is a
+      // sequence or a lone value.
+      if (!storage.root().isMap())
+        file_errors.fail("its top level is not a map of keys (K1: ..., P1: ...), as in a calibration file");
     }
   }
 
@@ -278,12 +337,16 @@ class StorageReader {
     const cv::FileNode found = node(key);
     cv::Mat m;
     try {
-      if (found.isMap()) found >> m;
+      // The declared size first: OpenCV allocates rows x cols before it counts the data, so that
+      // "rows: 100000, cols: 100000" would ask for 80 GB. A calibration's matrices are 4 x 4 at most.
+      if (found.isMap() && declared_values(found) > 0) found >> m;
     } catch (const std::exception&) {  // cv::Exception, or a std::length_error from a garbage count
       m.release();
     }
     if (m.empty() || m.channels() != 1)
-      errors_.malformed(key, "is not an OpenCV matrix (!!opencv-matrix with rows, cols, dt, data)");
+      errors_.malformed(key, "is not an OpenCV matrix of at most " + std::to_string(kMaxMatrixSide) + " x " +
+                                 std::to_string(kMaxMatrixSide) +
+                                 " values (!!opencv-matrix with rows, cols, dt and as many data as rows x cols)");
     m.convertTo(m, CV_64F);
     if ((rows > 0 && m.rows != rows) || (cols > 0 && m.cols != cols))
       errors_.malformed(key, "is " + std::to_string(m.rows) + "x" + std::to_string(m.cols) + ", expected " +
@@ -324,6 +387,18 @@ class StorageReader {
   }
 
  private:
+  static constexpr int kMaxMatrixSide = 16;
+
+  // rows x cols of a matrix node when both are whole numbers in [1, kMaxMatrixSide] and its data
+  // holds that many values; 0 otherwise.
+  static int declared_values(const cv::FileNode& matrix) {
+    const cv::FileNode rows = matrix["rows"], cols = matrix["cols"], data = matrix["data"];
+    if (!rows.isInt() || !cols.isInt() || !data.isSeq()) return 0;
+    const int r = static_cast<int>(rows), c = static_cast<int>(cols);
+    if (r < 1 || c < 1 || r > kMaxMatrixSide || c > kMaxMatrixSide) return 0;
+    return data.size() == static_cast<std::size_t>(r) * static_cast<std::size_t>(c) ? r * c : 0;
+  }
+
   // The key's node in the first file that has it; an empty node when none has.
   cv::FileNode node(const std::string& key) const {
     for (const cv::FileStorage& storage : storages_) {
@@ -517,7 +592,9 @@ Calibration read_calibration(const std::vector<std::string>& paths, int image_wi
       throw RuntimeError("calibration " + in_quotes(path) +
                          ": unknown format: expected a Middlebury calib.txt (cam0=[...], baseline=...) or an OpenCV "
                          "FileStorage file (.yml, .yaml, .xml, .json)");
+    check_storage_text(path, text);
     check_storage_nesting(path, text);
+    check_storage_parses(path);
   }
   return read_storage(paths, image_width, image_height);
 }

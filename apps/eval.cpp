@@ -996,6 +996,11 @@ std::map<std::string, std::string> read_scene_file(const fs::path& path) {
   return keys;
 }
 
+SceneSummary read_scene(const fs::path& folder) {
+  const SceneData s = load_scene(folder);
+  return {s.scene.name, s.left.cols, s.left.rows, s.min_disparity, s.num_disparities, s.mask_source};
+}
+
 std::vector<fs::path> find_scene_folders(const fs::path& data) {
   std::error_code ec;
   if (!fs::exists(data, ec)) throw RuntimeError("data folder " + in_quotes(data) + " does not exist");

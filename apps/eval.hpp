@@ -17,6 +17,19 @@ namespace mctstereo::app {
 /// The key=value lines of a scene.txt ('#' starts a comment line). RuntimeError if unreadable.
 std::map<std::string, std::string> read_scene_file(const std::filesystem::path& path);
 
+/// A scene folder as eval reads it before matching it.
+struct SceneSummary {
+  std::string name;
+  int width = 0, height = 0;                   ///< of its images
+  int min_disparity = 0, num_disparities = 0;  ///< the range its scene.txt gives
+  std::string mask_source;                     ///< "files", "derived-lr-check" or "ground-truth-only"
+};
+
+/// Reads the scene in `folder` as eval does: scene.txt, both images, the ground truth (PFM, or an
+/// 8- or 16-bit image with gt_scale), the masks or gt_right, and the disparity range. RuntimeError
+/// naming the file and the problem otherwise.
+SceneSummary read_scene(const std::filesystem::path& folder);
+
 /// Folders holding a scene.txt: `data` itself and every folder below it, sorted by path.
 /// RuntimeError when `data` is not a folder.
 std::vector<std::filesystem::path> find_scene_folders(const std::filesystem::path& data);

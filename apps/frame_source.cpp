@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -391,7 +392,102 @@ class SideBySideSource : public StereoSource {
 
 std::string sequence_kind(InputKind kind) { return kind == InputKind::Video ? "video" : "image sequence"; }
 
+// Where the synthetic square lies in frame `index`: its left column in the left view, top row, side.
+struct SyntheticSquare {
+  int x = 0, y = 0, side = 0;
+};
+
+SyntheticSquare synthetic_square(cv::Size size, int index) {
+  SyntheticSquare q;
+  q.side = std::max(8, std::min(size.width, size.height) / 3);
+  q.y = (size.height - q.side) / 2;
+  // Columns kSyntheticSquare .. width - side: the square is whole in both views.
+  const int span = std::max(1, size.width - q.side - kSyntheticSquare + 1);
+  q.x = kSyntheticSquare + static_cast<int>((2LL * index) % span);
+  return q;
+}
+
+// A dot's brightness: a hash of its column, row and layer (0 background, 1 square), any 8-bit value.
+std::uint8_t synthetic_dot(int u, int v, std::uint32_t layer) {
+  std::uint32_t h = static_cast<std::uint32_t>(u) * 0x9E3779B1u ^ static_cast<std::uint32_t>(v) * 0x85EBCA77u ^
+                    layer * 0xC2B2AE3Du;
+  h ^= h >> 15;
+  h *= 0x2C1B3C6Du;
+  h ^= h >> 12;
+  h *= 0x297A2D39u;
+  h ^= h >> 15;
+  return static_cast<std::uint8_t>(h >> 24);
+}
+
+// Frames made on demand: nothing is read, nothing stored but the two views being filled.
+class SyntheticSource : public StereoSource {
+ public:
+  SyntheticSource(cv::Size size, int start) : size_(size) { position_ = start; }
+
+  bool read(StereoFrame& frame) override {
+    make_synthetic_frame(size_, position_, frame);
+    ++position_;
+    return true;
+  }
+  std::string describe(int index) const override { return "synthetic frame " + std::to_string(index); }
+  std::vector<std::string> input_files() const override { return {}; }
+  std::string kind() const override { return "a synthetic random-dot scene"; }
+
+ private:
+  cv::Size size_;
+};
+
 }  // namespace
+
+cv::Size parse_synthetic_size(const std::string& spec, std::string_view flag) {
+  const std::size_t x = spec.find('x');
+  long side[2] = {0, 0};
+  bool ok = x != std::string::npos && x > 0 && x + 1 < spec.size();
+  for (int i = 0; ok && i < 2; ++i) {
+    const std::string part = i == 0 ? spec.substr(0, x) : spec.substr(x + 1);
+    for (const char c : part) {
+      if (!std::isdigit(static_cast<unsigned char>(c))) {
+        ok = false;
+        break;
+      }
+      side[i] = std::min<long>(side[i] * 10 + (c - '0'), kSyntheticMaxSide + 1);
+    }
+  }
+  if (!ok) throw UsageError(std::string(flag) + " " + in_quotes(spec) + ": expected WIDTHxHEIGHT, such as 320x240");
+  if (side[0] < kSyntheticMinWidth || side[1] < kSyntheticMinHeight || side[0] > kSyntheticMaxSide ||
+      side[1] > kSyntheticMaxSide)
+    throw UsageError(std::string(flag) + " " + in_quotes(spec) + ": the width must lie in [" +
+                     std::to_string(kSyntheticMinWidth) + ", " + std::to_string(kSyntheticMaxSide) +
+                     "] and the height in [" + std::to_string(kSyntheticMinHeight) + ", " +
+                     std::to_string(kSyntheticMaxSide) + "]");
+  return {static_cast<int>(side[0]), static_cast<int>(side[1])};
+}
+
+int synthetic_disparity(cv::Size size, int index, int x, int y) {
+  const SyntheticSquare q = synthetic_square(size, index);
+  return x >= q.x && x < q.x + q.side && y >= q.y && y < q.y + q.side ? kSyntheticSquare : kSyntheticBackground;
+}
+
+void make_synthetic_frame(cv::Size size, int index, StereoFrame& frame) {
+  const SyntheticSquare q = synthetic_square(size, index);
+  frame.whole.release();
+  frame.left.create(size, CV_8U);
+  frame.right.create(size, CV_8U);
+  for (int y = 0; y < size.height; ++y) {
+    std::uint8_t* left = frame.left.ptr<std::uint8_t>(y);
+    std::uint8_t* right = frame.right.ptr<std::uint8_t>(y);
+    const bool square_row = y >= q.y && y < q.y + q.side;
+    for (int x = 0; x < size.width; ++x) {
+      // The left view's pixel x shows the square's dot x - q.x, or the background's dot x; the right
+      // view's pixel x shows what lies at left column x + d: the square in front where it covers it.
+      const bool in_left = square_row && x >= q.x && x < q.x + q.side;
+      left[x] = in_left ? synthetic_dot(x - q.x, y - q.y, 1) : synthetic_dot(x, y, 0);
+      const int xs = x + kSyntheticSquare;
+      const bool in_right = square_row && xs >= q.x && xs < q.x + q.side;
+      right[x] = in_right ? synthetic_dot(xs - q.x, y - q.y, 1) : synthetic_dot(x + kSyntheticBackground, y, 0);
+    }
+  }
+}
 
 void check_frame_pattern(const std::string& pattern, std::string_view flag) {
   const Conversion conversion = find_conversion(pattern, flag);
@@ -424,13 +520,15 @@ std::unique_ptr<StereoSource> open_stereo_source(const StereoInputSpec& spec, in
   const bool side_by_side = !spec.side_by_side.empty();
   const bool cameras = spec.left_camera >= 0 || spec.right_camera >= 0;
   const bool side_by_side_camera = spec.side_by_side_camera >= 0;
-  const int inputs = int{files} + int{side_by_side} + int{cameras} + int{side_by_side_camera};
+  const bool synthetic = !spec.synthetic.empty();
+  const int inputs = int{files} + int{side_by_side} + int{cameras} + int{side_by_side_camera} + int{synthetic};
   if (inputs == 0)
-    throw UsageError("no input: give --left and --right, --side-by-side, --left-camera and --right-camera, or "
-                     "--side-by-side-camera");
+    throw UsageError("no input: give --left and --right, --side-by-side, --left-camera and --right-camera, "
+                     "--side-by-side-camera or --synthetic");
   if (inputs > 1)
-    throw UsageError("give one input: --left and --right, --side-by-side, --left-camera and --right-camera, or "
-                     "--side-by-side-camera, not several of them");
+    throw UsageError("give one input: --left and --right, --side-by-side, --left-camera and --right-camera, "
+                     "--side-by-side-camera or --synthetic, not several of them");
+  if (synthetic) return std::make_unique<SyntheticSource>(parse_synthetic_size(spec.synthetic, "--synthetic"), start);
   if ((cameras || side_by_side_camera) && start > 0)
     throw UsageError("--start skips frames of files; a camera delivers what it sees now");
 

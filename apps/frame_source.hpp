@@ -14,9 +14,10 @@ namespace mctstereo::app {
 
 /// Where the pairs come from, as the flags of `stream` give it. Exactly one of: left and right
 /// (two videos, two folders or two printf patterns), side_by_side (one video, folder or pattern
-/// holding the left view in the left half of each frame), the two cameras, or side_by_side_camera.
+/// holding the left view in the left half of each frame), the two cameras, side_by_side_camera, or
+/// synthetic ("WxH": pairs made frame by frame, see synthetic_disparity).
 struct StereoInputSpec {
-  std::string left, right, side_by_side;
+  std::string left, right, side_by_side, synthetic;
   int left_camera = -1, right_camera = -1, side_by_side_camera = -1;
 };
 
@@ -64,6 +65,23 @@ std::unique_ptr<StereoSource> open_stereo_source(const StereoInputSpec& spec, in
 /// --right-camera, a capture that stops delivering frames is a RuntimeError, not the end of input.
 std::unique_ptr<StereoSource> camera_pair_source(cv::VideoCapture&& left, int left_index, cv::VideoCapture&& right,
                                                  int right_index);
+
+/// The synthetic input (`stream --synthetic WxH`): gray random-dot pairs made frame by frame, never
+/// stored, endless. A background plane at disparity kSyntheticBackground and, in front of it, a
+/// square at kSyntheticSquare (a third of the smaller side, at least 8 px) that moves 2 px to the
+/// right each frame and starts again on the left; the dots of the square move with it. Frame N is
+/// the same on every run.
+inline constexpr int kSyntheticBackground = 4;
+inline constexpr int kSyntheticSquare = 12;
+/// The smallest and largest sides of a synthetic frame.
+inline constexpr int kSyntheticMinWidth = 48, kSyntheticMinHeight = 16, kSyntheticMaxSide = 8192;
+/// The size of `spec` ("WxH", both within the bounds above); UsageError naming `flag` otherwise.
+cv::Size parse_synthetic_size(const std::string& spec, std::string_view flag);
+/// The exact disparity of the left view's pixel (x, y) in synthetic frame `index` of `size`:
+/// kSyntheticSquare inside the square, kSyntheticBackground elsewhere.
+int synthetic_disparity(cv::Size size, int index, int x, int y);
+/// Synthetic frame `index` of `size` into `frame` (buffers reused while the size stays).
+void make_synthetic_frame(cv::Size size, int index, StereoFrame& frame);
 
 /// Throws UsageError unless `pattern` holds exactly one integer conversion (%d, %05d, %i, %u; %%
 /// for a literal %), in its file name rather than its folder. `flag` names it in messages.

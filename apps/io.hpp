@@ -13,7 +13,7 @@
 
 namespace mctstereo::app {
 
-/// Reads an image (PNG, PPM, PGM, JPEG, or anything OpenCV decodes) as the matcher takes it:
+/// Reads an image (PNG, PPM, PGM, JPEG, BMP, TIFF or WebP, told by its first bytes) as the matcher takes it:
 /// 8-bit gray or 8-bit BGR; an alpha channel is dropped. `role` names the image in messages
 /// ("left image"). RuntimeError when the file is missing, a folder, unreadable, not an image, or
 /// has samples that are not 8-bit.

@@ -50,6 +50,8 @@ constexpr const char* kStreamFooter = R"(Inputs (one of):
   --side-by-side F          a video, folder or pattern whose frames hold the left view in the left
                             half and the right view in the right half
   --left-camera I --right-camera J, --side-by-side-camera I: OpenCV capture indexes
+  --synthetic WxH           endless gray random-dot pairs made frame by frame (nothing read or
+                            stored): background at disparity 4, a square at 12 moving 2 px a frame
   Frames are numbered from 0 in input order (--start skips some but keeps their numbers); every
   frame must have the size of the first.
 Outputs (per-frame patterns take the frame number, e.g. 'out/disp_%05d.png'):
@@ -397,6 +399,10 @@ StreamCommand::StreamCommand(CLI::App& parent)
   app.add_option("--side-by-side-camera", input_.side_by_side_camera,
                  "OpenCV capture index of a camera delivering both views side by side")
       ->check(CLI::NonNegativeNumber)
+      ->group(input_group);
+  app.add_option("--synthetic", input_.synthetic,
+                 "WxH: endless gray random-dot pairs made frame by frame (background at disparity 4, a moving "
+                 "square at 12), for tests and soak runs")
       ->group(input_group);
   app.add_option("--start", start_, "skip the first N frames (files only)")
       ->check(CLI::NonNegativeNumber)

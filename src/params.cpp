@@ -193,8 +193,9 @@ std::string StereoParams::validate() const {
     fail("min_disparity = " + std::to_string(min_disparity) + " is outside [-1024, 1024]");
   if (num_disparities < 1 || num_disparities > 2048)
     fail("num_disparities = " + std::to_string(num_disparities) + " must be in [1, 2048]");
-  else if (min_disparity + num_disparities - 1 > 2039)
-    fail("min_disparity + num_disparities - 1 = " + std::to_string(min_disparity + num_disparities - 1) +
+  else if (static_cast<long long>(min_disparity) + num_disparities - 1 > 2039)  // in 64 bits: any int is checked
+    fail("min_disparity + num_disparities - 1 = " +
+         std::to_string(static_cast<long long>(min_disparity) + num_disparities - 1) +
          " must be at most 2039 (the Q4 int16 output)");
   if (!is_one_of(census_window, {3, 5, 7, 9}))
     fail("census_window = " + std::to_string(census_window) + " must be 3, 5, 7 or 9");
@@ -268,8 +269,9 @@ std::string StereoParams::validate(int width, int height) const {
   if (width > 32768 || height > 32768)
     fail("image size " + std::to_string(width) + " x " + std::to_string(height) + " exceeds 32768 x 32768");
   // A disparity d can only be valid somewhere when |d| < width.
-  if (num_disparities >= 1 && (min_disparity >= width || max_disparity() <= -width))
-    fail("disparity range [" + std::to_string(min_disparity) + ", " + std::to_string(max_disparity()) +
+  const long long max_d = static_cast<long long>(min_disparity) + num_disparities - 1;  // any int: no overflow
+  if (num_disparities >= 1 && (min_disparity >= width || max_d <= -width))
+    fail("disparity range [" + std::to_string(min_disparity) + ", " + std::to_string(max_d) +
          "] does not overlap the image width " + std::to_string(width) + " (|d| must be below the width)");
   else if (num_disparities > width)
     fail("num_disparities = " + std::to_string(num_disparities) + " is wider than the image (" +

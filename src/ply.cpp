@@ -321,8 +321,12 @@ PointCloud read_ply(std::istream& in, const std::string& name) {
 
   PlyBody body(bytes, header, name);
   std::vector<double> values;
-  for (auto e = header.elements.begin(); e != vertex; ++e)  // elements before the vertices are read past
-    for (std::int64_t row = 0; row < e->count; ++row) read_row(body, *e, row, values);
+  // Elements before the vertices are read past. One without properties has nothing to read: its
+  // rows are skipped at once, not counted one by one (a count of 10^18 would never end; found by
+  // fuzz/fuzz_ply.cpp).
+  for (auto e = header.elements.begin(); e != vertex; ++e)
+    if (!e->properties.empty())
+      for (std::int64_t row = 0; row < e->count; ++row) read_row(body, *e, row, values);
   PointCloud cloud;
   cloud.units.clear();  // a PLY file does not say
   // No more than the file can hold: a huge count in a small file is truncated, not out of memory.

@@ -132,6 +132,9 @@ TEST(Params, ValidateNamesTheParameterAndRange) {
       {[](StereoParams& p) { p.uniqueness_ratio = 101; }, "uniqueness_ratio = 101"},
       {[](StereoParams& p) { p.working_scale = 3; }, "working_scale = 3 must be 1, 2 or 4"},
       {[](StereoParams& p) { p.num_disparities = 2048; p.min_disparity = 10; }, "must be at most 2039"},
+      // Found by fuzz/fuzz_params.cpp: the sum overflowed an int (undefined behaviour) before.
+      {[](StereoParams& p) { p.num_disparities = 809; p.min_disparity = 2147483559; },
+       "min_disparity + num_disparities - 1 = 2147484367 must be at most 2039"},
   };
   for (const BadCase& c : cases) {
     StereoParams p;
@@ -149,6 +152,10 @@ TEST(Params, ValidateAgainstTheImage) {
   p.min_disparity = 100;
   EXPECT_NE(p.validate(90, 10).find("does not overlap"), std::string::npos);
   EXPECT_NE(p.validate(0, 10).find("at least 1 x 1"), std::string::npos);
+  p.min_disparity = -2147483647;  // the largest disparity, computed without overflow
+  p.num_disparities = 2048;
+  EXPECT_NE(p.validate(90, 10).find("disparity range [-2147483647, -2147481600] does not overlap"), std::string::npos)
+      << p.validate(90, 10);
   p.min_disparity = 0;
   p.num_disparities = 0;
   p.census_window = 4;

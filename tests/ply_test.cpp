@@ -95,5 +95,20 @@ TEST(Ply, DamagedFilesAreRefusedByName) {
             "'c.ply': unknown type 'quad' in 'property quad x'");
 }
 
+// Found by fuzz/fuzz_ply.cpp: an element without properties before the vertices, with a count of
+// 10^18, was read past row by row, reading nothing, for ever.
+TEST(Ply, AnElementWithoutPropertiesAndAHugeCountIsPassedAtOnce) {
+  const std::string tail = "element vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n";
+  const PointCloud ascii = read("ply\nformat ascii 1.0\nelement marker 555555555555555555\n" + tail + "1 2 3\n4 5 6\n");
+  EXPECT_EQ(ascii.xyz, (std::vector<float>{1, 2, 3, 4, 5, 6}));
+  const PointCloud binary =
+      read("ply\nformat binary_little_endian 1.0\nelement marker 999999999999999999\n" + tail + le(1.0f) + le(2.0f) +
+           le(3.0f) + le(4.0f) + le(5.0f) + le(6.0f));
+  EXPECT_EQ(binary.xyz, (std::vector<float>{1, 2, 3, 4, 5, 6}));
+  // With a property, every row takes at least a byte: the count runs into the end of the file.
+  EXPECT_EQ(message_of("ply\nformat ascii 1.0\nelement marker 555555555555555555\nproperty uchar m\n" + tail + "1\n"),
+            "'c.ply' is truncated: it ends in marker 2 of 555555555555555555");
+}
+
 }  // namespace
 }  // namespace mctstereo

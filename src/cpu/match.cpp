@@ -269,6 +269,9 @@ struct WtaState {
   V16 sec;          // smallest cost outside bd - 1 .. bd + 1 (kInf: none)
   V16 pmin, pmin2;  // chunked pass only: smallest cost up to d - 1 and up to d - 2
   V16 prev;         // chunked pass only: cost at d - 1
+  // Defined here, so that it carries the target's attributes: GCC's implicit constructor does not,
+  // and cannot inline the vectors' constructors on aarch64 ("target specific option mismatch").
+  WtaState() {}
 };
 
 // Per-lane candidate test as one unsigned compare: d is a candidate of the lane iff

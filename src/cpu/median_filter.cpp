@@ -63,16 +63,18 @@ namespace hn = hwy::HWY_NAMESPACE;
 using D16 = hn::ScalableTag<std::int16_t>;
 using V16 = hn::Vec<D16>;
 
-template <const Cmp& c>
+// The comparator's fields are template arguments one by one (not a reference to the array
+// element, which Clang 14 does not take as a template argument).
+template <int a, int b, CmpKind kind>
 HWY_INLINE void Apply(V16* v) {
-  if constexpr (c.kind == kSort) {
-    const V16 lo = hn::Min(v[c.a], v[c.b]);
-    v[c.b] = hn::Max(v[c.a], v[c.b]);
-    v[c.a] = lo;
-  } else if constexpr (c.kind == kMin) {
-    v[c.a] = hn::Min(v[c.a], v[c.b]);
+  if constexpr (kind == kSort) {
+    const V16 lo = hn::Min(v[a], v[b]);
+    v[b] = hn::Max(v[a], v[b]);
+    v[a] = lo;
+  } else if constexpr (kind == kMin) {
+    v[a] = hn::Min(v[a], v[b]);
   } else {
-    v[c.b] = hn::Max(v[c.a], v[c.b]);
+    v[b] = hn::Max(v[a], v[b]);
   }
 }
 
@@ -80,7 +82,7 @@ HWY_INLINE void Apply(V16* v) {
 // keeps all wires in registers.
 template <const auto& kNet, std::size_t... I>
 HWY_INLINE void ApplyNetwork(V16* v, std::index_sequence<I...>) {
-  (Apply<kNet[I]>(v), ...);
+  (Apply<kNet[I].a, kNet[I].b, kNet[I].kind>(v), ...);
 }
 template <const auto& kNet>
 HWY_INLINE void ApplyNetwork(V16* v) {

@@ -34,23 +34,33 @@ using mctstereo::test::shell_quoted;
 namespace fs = std::filesystem;
 
 // Just enough JSON to read the report back: every value kind, no escapes beyond \" \\ \/ \n \t.
+// (A member is a struct declared ahead rather than a std::pair, which needs JsonValue complete
+// where Clang instantiates it.)
+struct JsonMember;
 struct JsonValue {
   enum Kind { Null, Bool, Number, String, Array, Object } kind = Null;
   bool boolean = false;
   double number = 0;
   std::string text;
   std::vector<JsonValue> items;
-  std::vector<std::pair<std::string, JsonValue>> members;
+  std::vector<JsonMember> members;
 
-  bool has(const std::string& key) const {
-    return std::any_of(members.begin(), members.end(), [&](const auto& m) { return m.first == key; });
-  }
-  const JsonValue& operator[](const std::string& key) const {
-    for (const auto& m : members)
-      if (m.first == key) return m.second;
-    throw std::out_of_range("no member '" + key + "'");
-  }
+  bool has(const std::string& key) const;
+  const JsonValue& operator[](const std::string& key) const;
 };
+struct JsonMember {
+  std::string first;
+  JsonValue second;
+};
+
+bool JsonValue::has(const std::string& key) const {
+  return std::any_of(members.begin(), members.end(), [&](const JsonMember& m) { return m.first == key; });
+}
+const JsonValue& JsonValue::operator[](const std::string& key) const {
+  for (const JsonMember& m : members)
+    if (m.first == key) return m.second;
+  throw std::out_of_range("no member '" + key + "'");
+}
 
 class JsonReader {
  public:
@@ -105,7 +115,7 @@ class JsonReader {
       do {
         std::string key = string_value();
         if (!take(':')) fail("':' expected");
-        v.members.emplace_back(std::move(key), value());
+        v.members.push_back(JsonMember{std::move(key), value()});
       } while (take(','));
       if (!take('}')) fail("'}' expected");
     } else if (c == '[') {

@@ -7,6 +7,7 @@
 #include <opencv2/core.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -248,6 +249,27 @@ TEST_F(Calibrations, BadFilesNameTheFileAndTheKey) {
                {"rigsize.yml", "'image_width'", "missing"});
   expect_error(write_storage("q.yml", [](cv::FileStorage& f) { f << "Q" << cv::Mat::eye(4, 4, CV_64F); }),
                {"q.yml", "'Q'", "focal"});
+}
+
+// Inputs found by fuzz/fuzz_calibration.cpp: each crashed, hung or exhausted memory in OpenCV's
+// FileStorage before it was checked.
+TEST_F(Calibrations, FilesThatBrokeOpenCvsParserAreRefusedNamingTheFile) {
+  // A top level that is a sequence: cv::FileStorage::operator[] threw an unnamed cv::Exception.
+  expect_error(write("seq.yml", "%YAML:1.0\n- 1\n- 2\n"), {"seq.yml", "top level is not a map"});
+  // A NUL inside the XML header: OpenCV 4.6's XML parser read a null pointer (SIGSEGV).
+  const char nul[] = "<?xml version=\"1.0\0\0\"?>\n<opencv_storage>\n</opencv_storage>\n";
+  expect_error(write("nul.xml", std::string(nul, sizeof nul - 1)), {"nul.xml", "byte 18 is 0x00", "control character"});
+  // "rows: 100000, cols: 100000": OpenCV allocated 80 GB before it counted the data.
+  const std::string huge = "%YAML:1.0\nP1: !!opencv-matrix\n   rows: 100000\n   cols: 100000\n   dt: d\n"
+                           "   data: [ 1., 2. ]\n";
+  expect_error(write("huge.yml", huge), {"huge.yml", "'P1'", "at most 16 x 16 values"});
+  // A declared size that the data does not fill.
+  expect_error(write("short.yml", "%YAML:1.0\nP1: !!opencv-matrix\n   rows: 3\n   cols: 4\n   dt: d\n   data: [ 1. ]\n"),
+               {"short.yml", "'P1'", "as many data as rows x cols"});
+  // Three lines on which OpenCV 4.6's YAML parser loops for ever: refused after 5 s.
+  const auto start = std::chrono::steady_clock::now();
+  expect_error(write("loop.yml", "%YAML:1.0\n   s:3\nncv-\n"), {"loop.yml", "did not finish within 5 s"});
+  EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(30));
 }
 
 TEST_F(Calibrations, AnotherImageSizeIsRefusedNamingBothSizes) {

@@ -269,3 +269,34 @@ TEST_F(Hardening, ThreadsThatCannotStartUnderAMemoryLimitAreFewerNotFatal) {
 }
 
 }  // namespace
+
+namespace {
+
+// Found by fuzz/fuzz_image.cpp: a file that OpenCV gave to its DICOM decoder (GDCM) aborted the
+// whole process in an assertion. Only PNG, PNM, JPEG, BMP, TIFF and WebP reach OpenCV now, and a
+// PGM that also carries DICOM's mark at byte 128 (which OpenCV asks before its PNM decoder) is
+// refused; other formats OpenCV knows (Sun raster, say) are refused by name.
+TEST_F(Hardening, OnlyTheImageFormatsNamedReachOpenCvsDecoders) {
+  std::string dicom_pgm = "P5\n8 8\n255\n";
+  dicom_pgm.resize(128, '#');
+  dicom_pgm += "DICM";
+  dicom_pgm.append(64, '\x01');
+  write("dicom.pgm", dicom_pgm);
+  expect_failure("match dicom.pgm right.png -o d.pfm", kRuntime,
+                 "cannot decode left image 'dicom.pgm': not a PNG, PPM, PGM, JPEG, BMP, TIFF or WebP image");
+  const unsigned char sun[] = {0x59, 0xa6, 0x6a, 0x95, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 8,
+                               0,    0,    0,    1,    0, 0, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 7};
+  write("sun.ras", std::string(reinterpret_cast<const char*>(sun), sizeof sun));
+  expect_failure("match left.png sun.ras -o d.pfm", kRuntime,
+                 "cannot decode right image 'sun.ras': not a PNG, PPM, PGM, JPEG, BMP, TIFF or WebP image");
+  // The formats named still decode: the pair as BMP gives the PNG pair's map.
+  ASSERT_TRUE(cv::imwrite((folder_ / "left.bmp").string(), cv::imread((folder_ / "left.png").string())));
+  ASSERT_TRUE(cv::imwrite((folder_ / "right.tif").string(), cv::imread((folder_ / "right.png").string())));
+  const Result bmp = run("match left.bmp right.tif --num-disparities 16 -o b.pfm");
+  ASSERT_EQ(bmp.status, 0) << bmp.output;
+  const Result png = run("match left.png right.png --num-disparities 16 -o p.pfm");
+  ASSERT_EQ(png.status, 0) << png.output;
+  EXPECT_EQ(read_text(folder_ / "b.pfm"), read_text(folder_ / "p.pfm"));
+}
+
+}  // namespace

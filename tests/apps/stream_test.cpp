@@ -599,3 +599,74 @@ TEST(StreamSource, CameraThatStopsIsAnError) {
 }
 
 }  // namespace
+
+// --synthetic: frames made in the process, of known disparity; frame N the same on every run.
+TEST(StreamSynthetic, FramesHoldTheirKnownDisparitiesAndTheSquareMoves) {
+  using mctstereo::app::kSyntheticBackground;
+  using mctstereo::app::kSyntheticSquare;
+  const cv::Size size(96, 48);
+  mctstereo::app::StereoFrame a, b;
+  mctstereo::app::make_synthetic_frame(size, 3, a);
+  mctstereo::app::make_synthetic_frame(size, 3, b);
+  ASSERT_EQ(a.left.size(), size);
+  ASSERT_EQ(a.left.type(), CV_8UC1);
+  EXPECT_EQ(cv::norm(a.left, b.left, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(a.right, b.right, cv::NORM_INF), 0.0);
+  // Every left pixel whose match lies inside the right view shows what that right pixel shows,
+  // unless the square covers it there (the background it hides).
+  int checked = 0, square = 0;
+  for (int y = 0; y < size.height; ++y)
+    for (int x = 0; x < size.width; ++x) {
+      const int d = mctstereo::app::synthetic_disparity(size, 3, x, y);
+      ASSERT_TRUE(d == kSyntheticBackground || d == kSyntheticSquare);
+      const int xr = x - d;
+      if (xr < 0) continue;
+      if (d == kSyntheticBackground && mctstereo::app::synthetic_disparity(size, 3, xr + kSyntheticSquare, y) ==
+                                           kSyntheticSquare)
+        continue;  // occluded in the right view
+      ASSERT_EQ(a.left.at<std::uint8_t>(y, x), a.right.at<std::uint8_t>(y, xr)) << x << ", " << y;
+      ++checked;
+      square += d == kSyntheticSquare ? 1 : 0;
+    }
+  EXPECT_GT(checked, size.area() * 3 / 4);
+  EXPECT_EQ(square, 16 * 16);  // the square (a third of 48) is whole in both views
+  // Frame 4's square lies 2 px to the right of frame 3's.
+  int first3 = -1, first4 = -1;
+  for (int x = 0; x < size.width && (first3 < 0 || first4 < 0); ++x) {
+    if (first3 < 0 && mctstereo::app::synthetic_disparity(size, 3, x, 24) == kSyntheticSquare) first3 = x;
+    if (first4 < 0 && mctstereo::app::synthetic_disparity(size, 4, x, 24) == kSyntheticSquare) first4 = x;
+  }
+  EXPECT_EQ(first4, first3 + 2);
+  EXPECT_THROW(mctstereo::app::parse_synthetic_size("20x20", "--synthetic"), mctstereo::app::UsageError);
+  EXPECT_THROW(mctstereo::app::parse_synthetic_size("320x", "--synthetic"), mctstereo::app::UsageError);
+  EXPECT_EQ(mctstereo::app::parse_synthetic_size("320x240", "--synthetic"), cv::Size(320, 240));
+}
+
+TEST_F(Stream, SyntheticInputIsMatchedToItsKnownDisparities) {
+  const Result r = run("--synthetic 160x120 --start 5 --max-frames 4 " + kMatching +
+                       "--disparity 'out/d%d.pfm' --quiet");
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_NE(r.output.find("4 frames 160x120 from a synthetic random-dot scene"), std::string::npos) << r.output;
+  EXPECT_EQ(folder_listing(folder_ / "out"), (std::set<std::string>{"d5.pfm", "d6.pfm", "d7.pfm", "d8.pfm"}));
+  for (int f = 5; f <= 8; ++f) {
+    const cv::Mat d = read_pfm(folder_ / "out" / numbered("d%d.pfm", f));
+    ASSERT_EQ(d.size(), cv::Size(160, 120)) << f;
+    // Away from the square's edges and the image border, every pixel within 1/16 px of the truth.
+    int near = 0, total = 0;
+    for (int y = 4; y < 116; ++y)
+      for (int x = 24; x < 156; ++x) {
+        bool interior = true;
+        const int truth = mctstereo::app::synthetic_disparity({160, 120}, f, x, y);
+        for (int dy = -3; dy <= 3 && interior; ++dy)
+          for (int dx = -3 - mctstereo::app::kSyntheticSquare; dx <= 3 && interior; ++dx)
+            interior = mctstereo::app::synthetic_disparity({160, 120}, f, x + dx, y + dy) == truth;
+        if (!interior) continue;
+        ++total;
+        near += std::abs(d.at<float>(y, x) - truth) <= kExact ? 1 : 0;
+      }
+    EXPECT_GT(total, 8000) << f;
+    EXPECT_GE(near, total * 99 / 100) << "frame " << f << ": " << near << " of " << total;
+  }
+  expect_failure("--synthetic 10x10", kUsage, "--synthetic '10x10': the width must lie in [48, 8192]");
+  expect_failure("--synthetic 64x48 --left 'seq/left_%04d.png' --right x", kUsage, "give one input");
+}

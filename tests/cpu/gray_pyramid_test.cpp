@@ -9,7 +9,9 @@ namespace {
 
 TEST(CpuGray, EqualsReferenceForEveryFormatSizeAndStride) {
   std::uint32_t seed = 1;
-  for (auto [w, h] : awkward_sizes()) {
+  for (const auto& w_h : awkward_sizes()) {
+    const auto w = w_h.first;
+    const auto h = w_h.second;
     for (PixelFormat format : {PixelFormat::Gray8, PixelFormat::Rgb8, PixelFormat::Bgr8}) {
       for (int extra : {0, 13}) {
         const RandomInput input(w, h, format, extra, seed++);
@@ -28,7 +30,9 @@ TEST(CpuGray, EqualsReferenceForEveryFormatSizeAndStride) {
 
 TEST(CpuGray, KnownLumaValues) {
   // 40 pixels, so that the vector path runs on every target.
-  const auto [rgb, want] = known_luma_row();
+  const KnownLuma known = known_luma_row();
+  const std::vector<std::uint8_t>& rgb = known.rgb;
+  const std::vector<int>& want = known.luma;
   const ImageView view{rgb.data(), 40, 1, static_cast<std::ptrdiff_t>(rgb.size()), PixelFormat::Rgb8};
   for_each_target_and_threads([&](const std::string& label) {
     Plane<std::uint8_t> out(40, 1);
@@ -39,7 +43,9 @@ TEST(CpuGray, KnownLumaValues) {
 
 TEST(CpuPyramid, EqualsReferenceOnOddAndEvenSizes) {
   std::uint32_t seed = 100;
-  for (auto [w, h] : pyramid_sizes()) {
+  for (const auto& w_h : pyramid_sizes()) {
+    const auto w = w_h.first;
+    const auto h = w_h.second;
     for (int pad : {0, 7}) {
       const Plane<std::uint8_t> src = random_image(w, h, seed++, pad);
       Plane<std::uint8_t> expected((w + 1) / 2, (h + 1) / 2);

@@ -145,7 +145,9 @@ TEST(RefineReference, SpeckleKnownAnswer) {
 
 TEST(RefineCpu, MedianFilterMatchesReference) {
   std::uint32_t seed = 100;
-  for (auto [w, h] : awkward_sizes()) {
+  for (const auto& w_h : awkward_sizes()) {
+    const auto w = w_h.first;
+    const auto h = w_h.second;
     for (const MapKind& kind : kMapKinds) {
       const auto src = random_disparity(w, h, ++seed, -400, 600, kind.invalid, kind.whole);
       for (int k : {3, 5}) {
@@ -178,12 +180,16 @@ TEST(RefineCpu, MedianFilterMatchesReferenceWithManyTies) {
 
 TEST(RefineCpu, LrCheckMatchesReference) {
   std::uint32_t seed = 200;
-  for (auto [w, h] : awkward_sizes()) {
+  for (const auto& w_h : awkward_sizes()) {
+    const auto w = w_h.first;
+    const auto h = w_h.second;
     for (const MapKind& kind : kMapKinds) {
       const auto [src, other, narrow, narrow_other] = lr_check_maps(w, h, seed, kind);
       for (int dir : {-1, +1}) {
         for (int threshold : {0, 16, 32}) {
-          for (auto [a, b] : {std::pair{&src, &other}, {&narrow, &narrow_other}}) {
+          for (const auto& a_b : {std::pair{&src, &other}, {&narrow, &narrow_other}}) {
+            const auto a = a_b.first;
+            const auto b = a_b.second;
             Plane<std::int16_t> expected(w, h), actual(w, h);
             reference::lr_check(*a, *b, dir, threshold, expected);
             for_each_target_and_threads([&](const std::string& where) {
@@ -202,8 +208,12 @@ TEST(RefineCpu, LrCheckMatchesReferenceOnSmoothMaps) {
   std::uint32_t seed = 700;
   auto sizes = awkward_sizes();
   sizes.push_back({300, 2});
-  for (auto [w, h] : sizes) {
-    for (auto [base, step] : kLrCheckMapShapes) {
+  for (const auto& w_h : sizes) {
+    const auto w = w_h.first;
+    const auto h = w_h.second;
+    for (const auto& base_step : kLrCheckMapShapes) {
+      const auto base = base_step.first;
+      const auto step = base_step.second;
       const auto a = smooth_disparity(w, h, ++seed, base, step, 9);
       const auto b = smooth_disparity(w, h, ++seed, base, step, 9);
       for (int dir : {-1, +1})
@@ -237,7 +247,9 @@ TEST(RefineCpu, LrCheckKeepsAndRejectsOnLargeMaps) {
 
 TEST(RefineCpu, RemoveSpecklesMatchesReference) {
   std::uint32_t seed = 300;
-  for (auto [w, h] : awkward_sizes()) {
+  for (const auto& w_h : awkward_sizes()) {
+    const auto w = w_h.first;
+    const auto h = w_h.second;
     SpeckleScratch scratch = make_scratch(w, h);
     for (const MapKind& kind : kMapKinds) {
       const Plane<std::int16_t> maps[] = {
@@ -268,7 +280,9 @@ TEST(RefineCpu, RemoveSpecklesMatchesReference) {
 TEST(RefineCpu, RemoveSpecklesWithSmallerMapThanScratch) {
   // The driver sizes the scratch for the finest level and reuses it at coarser ones.
   SpeckleScratch scratch = make_scratch(640, 480);
-  for (auto [w, h] : {std::pair{320, 240}, {161, 121}, {33, 7}}) {
+  for (const auto& w_h : {std::pair{320, 240}, {161, 121}, {33, 7}}) {
+    const auto w = w_h.first;
+    const auto h = w_h.second;
     const auto map = speckle_map(w, h, 77 + w, 8, 0.05);
     Plane<std::int16_t> expected = copy_of(map), actual = copy_of(map);
     reference::remove_speckles(expected, 50, 16, scratch);
@@ -292,7 +306,9 @@ TEST(RefineCpu, RemoveSpecklesWithUnusualThresholds) {
 
 TEST(RefineCpu, FillInvalidMatchesReference) {
   std::uint32_t seed = 400;
-  for (auto [w, h] : awkward_sizes()) {
+  for (const auto& w_h : awkward_sizes()) {
+    const auto w = w_h.first;
+    const auto h = w_h.second;
     // 85 % invalid adds runs longer than the short-run path (8 pixels) takes.
     for (double invalid : {0.0, 0.1, 0.6, 0.85, 1.0}) {
       const auto map = random_disparity(w, h, ++seed, -400, 600, invalid, invalid == 0.6);

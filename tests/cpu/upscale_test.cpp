@@ -11,7 +11,9 @@ using detail::kInvalid;
 TEST(CpuUpscale, EqualsReferenceAtAwkwardSizes) {
   std::uint32_t seed = 3;
   for (int factor : {2, 4, 1, 3}) {
-    for (auto [w, h] : awkward_sizes()) {
+    for (const auto& w_h : awkward_sizes()) {
+      const auto w = w_h.first;
+      const auto h = w_h.second;
       // The destination is the awkward size, mostly not a multiple of the factor.
       const int sw = (w + factor - 1) / factor, sh = (h + factor - 1) / factor;
       // Values beyond [lo, hi] after scaling on both sides, and products beyond int16.

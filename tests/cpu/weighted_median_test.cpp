@@ -186,7 +186,9 @@ TEST(WeightedMedianCpu, MatchesReference) {
   };
   const ConfigCase configs[] = {{9, 3, 10}, {1, 1, 10}, {4, 3, 255}, {15, 5, 1}, {6, 2, 30}};
   std::uint32_t seed = 7000;
-  for (auto [w, h] : sizes) {
+  for (const auto& w_h : sizes) {
+    const auto w = w_h.first;
+    const auto h = w_h.second;
     for (const MapKind& kind : kMapKinds) {
       for (const RangeCase& range : ranges) {
         const auto src = random_disparity(w, h, ++seed, range.lo_q4, range.hi_q4, kind.invalid, kind.whole);
@@ -214,10 +216,14 @@ TEST(WeightedMedianCpu, MatchesReferenceOnSmoothMapsAndWideWindows) {
   // Maps like real ones (steps, sub-pixel noise across the rounding point), smooth colour, every
   // sample of a 15-radius window (961 samples).
   std::uint32_t seed = 9000;
-  for (auto [w, h] : std::vector<std::pair<int, int>>{{97, 31}, {200, 9}, {33, 40}}) {
+  for (const auto& w_h : std::vector<std::pair<int, int>>{{97, 31}, {200, 9}, {33, 40}}) {
+    const auto w = w_h.first;
+    const auto h = w_h.second;
     const auto src = smooth_disparity(w, h, ++seed, 16 * 20, 9, 12);
     const Colour colour = random_colour(w, h, ++seed, 0);
-    for (auto [radius, step] : std::vector<std::pair<int, int>>{{15, 1}, {9, 3}, {2, 2}}) {
+    for (const auto& radius_step : std::vector<std::pair<int, int>>{{15, 1}, {9, 3}, {2, 2}}) {
+      const auto radius = radius_step.first;
+      const auto step = radius_step.second;
       Plane<std::int16_t> expected(w, h), actual(w, h);
       reference::weighted_median(src, colour.view(3), config(radius, step, 10), expected);
       for_each_target_and_threads([&](const std::string& where) {
@@ -230,7 +236,9 @@ TEST(WeightedMedianCpu, MatchesReferenceOnSmoothMapsAndWideWindows) {
 
 TEST(WeightedMedianCpu, ScalarFormsMatchReference) {
   std::uint32_t seed = 9500;
-  for (auto [w, h] : std::vector<std::pair<int, int>>{{1, 1}, {33, 2}, {97, 13}}) {
+  for (const auto& w_h : std::vector<std::pair<int, int>>{{1, 1}, {33, 2}, {97, 13}}) {
+    const auto w = w_h.first;
+    const auto h = w_h.second;
     const auto src = random_disparity(w, h, ++seed, -16 * 40, 16 * 300, 0.2, false);
     const Colour colour = random_colour(w, h, ++seed, 0);
     Plane<std::int16_t> expected(w, h), actual(w, h);
@@ -244,7 +252,9 @@ TEST(WeightedMedianCpu, ScalarFormsMatchReference) {
 
 TEST(SplitChannelsCpu, MatchesReference) {
   std::uint32_t seed = 9700;
-  for (auto [w, h] : awkward_sizes()) {
+  for (const auto& w_h : awkward_sizes()) {
+    const auto w = w_h.first;
+    const auto h = w_h.second;
     for (PixelFormat format : {PixelFormat::Gray8, PixelFormat::Rgb8, PixelFormat::Bgr8}) {
       const RandomInput input(w, h, format, 5, ++seed);
       std::array<Plane<std::uint8_t>, 3> expected, actual;
