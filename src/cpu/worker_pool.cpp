@@ -41,9 +41,12 @@ WorkerPool::WorkerPool(int threads) {
 }
 
 WorkerPool::~WorkerPool() {
-  stop_.store(true, std::memory_order_release);
-  published_.fetch_add(1, std::memory_order_release);
-  published_.notify_all();
+  stop_.store(true);
+  published_.fetch_add(1);
+  {
+    const std::lock_guard<std::mutex> lock(sleep_mutex_);
+    workers_wake_.notify_all();
+  }
   for (std::thread& t : workers_) t.join();
 }
 
@@ -59,15 +62,23 @@ void WorkerPool::run(int chunks, ChunkFn fn, const void* context) {
   done_.store(0, std::memory_order_relaxed);
   const std::uint32_t g = ++generation_;
   state_.store(static_cast<std::uint64_t>(g) << 32, std::memory_order_release);
-  published_.store(g, std::memory_order_release);
-  published_.notify_all();  // a system call only when a worker sleeps
+  published_.store(g);  // seq_cst: see sleep_mutex_
+  if (sleepers_.load() > 0) {  // a system call only when a worker sleeps
+    const std::lock_guard<std::mutex> lock(sleep_mutex_);
+    workers_wake_.notify_all();
+  }
   work(g);
-  for (int polls = 0;; ++polls) {
-    const int done = done_.load(std::memory_order_acquire);
-    if (done == chunks) return;
-    if (polls < kCallerPolls) cpu_relax();
-    else if (polls < 2 * kCallerPolls) std::this_thread::yield();
-    else done_.wait(done, std::memory_order_acquire);
+  for (int polls = 0; done_.load(std::memory_order_acquire) != chunks; ++polls) {
+    if (polls < kCallerPolls) {
+      cpu_relax();
+    } else if (polls < 2 * kCallerPolls) {
+      std::this_thread::yield();
+    } else {
+      std::unique_lock<std::mutex> lock(sleep_mutex_);
+      caller_sleeps_.store(true);
+      while (done_.load() != chunks) caller_wake_.wait(lock);
+      caller_sleeps_.store(false);
+    }
   }
 }
 
@@ -82,7 +93,10 @@ void WorkerPool::work(std::uint32_t generation) {
     if (chunk >= chunks) return;
     if (!state_.compare_exchange_weak(s, s + 1, std::memory_order_acq_rel, std::memory_order_acquire)) continue;
     fn(context, chunk);
-    if (done_.fetch_add(1, std::memory_order_acq_rel) + 1 == chunks) done_.notify_one();
+    if (done_.fetch_add(1) + 1 == chunks && caller_sleeps_.load()) {  // seq_cst: see sleep_mutex_
+      const std::lock_guard<std::mutex> lock(sleep_mutex_);
+      caller_wake_.notify_one();
+    }
     s = state_.load(std::memory_order_acquire);
   }
 }
@@ -92,10 +106,15 @@ void WorkerPool::worker_main(int slot) {
   std::uint32_t seen = 0;
   for (;;) {
     std::uint32_t g = published_.load(std::memory_order_acquire);
-    for (int polls = 0; g == seen; ++polls) {
-      if (polls < kWorkerPolls) cpu_relax();
-      else published_.wait(seen, std::memory_order_acquire);
+    for (int polls = 0; g == seen && polls < kWorkerPolls; ++polls) {
+      cpu_relax();
       g = published_.load(std::memory_order_acquire);
+    }
+    if (g == seen) {
+      std::unique_lock<std::mutex> lock(sleep_mutex_);
+      sleepers_.fetch_add(1);
+      while ((g = published_.load()) == seen) workers_wake_.wait(lock);
+      sleepers_.fetch_sub(1);
     }
     if (stop_.load(std::memory_order_acquire)) return;
     seen = g;

@@ -19,7 +19,9 @@
 #pragma once
 
 #include <atomic>
+#include <condition_variable>
 #include <cstdint>
+#include <mutex>
 #include <thread>
 #include <vector>
 
@@ -62,6 +64,15 @@ class WorkerPool {
   alignas(64) std::atomic<std::uint32_t> published_{0};  // the generation the workers wait on
   alignas(64) std::atomic<int> done_{0};  // chunks of the current generation finished
   std::atomic<bool> stop_{false};
+  // Sleeping, after the polls: the workers until a new generation, the caller until the last
+  // chunk is done. A sleeper announces itself (sleepers_, caller_sleeps_) before it checks the
+  // condition under the mutex; the other side changes the condition first and notifies under the
+  // mutex when it sees an announcement. With sequentially consistent orders on both sides, one
+  // of the two always sees the other: no wake-up is lost.
+  std::mutex sleep_mutex_;
+  std::condition_variable workers_wake_, caller_wake_;
+  std::atomic<int> sleepers_{0};
+  std::atomic<bool> caller_sleeps_{false};
 };
 
 }  // namespace mctstereo::detail::cpu
