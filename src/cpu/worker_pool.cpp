@@ -11,6 +11,9 @@ namespace {
 
 thread_local int t_slot = 0;
 
+// The "next chunk" of a job whose fields are being rewritten: larger than any chunk count.
+constexpr std::uint32_t kClosed = 0xFFFFFFFFu;
+
 // How long a thread polls before it sleeps. Waiting workers poll for about 50 us: the stages of a
 // frame follow each other within microseconds, and a futex wake-up costs more than that gap. The
 // caller polls for its last chunks a little longer, then yields its CPU (to a preempted worker
@@ -56,11 +59,16 @@ void WorkerPool::run(int chunks, ChunkFn fn, const void* context) {
     for (int c = 0; c < chunks; ++c) fn(context, c);
     return;
   }
-  fn_.store(fn, std::memory_order_relaxed);
-  context_.store(context, std::memory_order_relaxed);
-  chunks_.store(chunks, std::memory_order_relaxed);
-  done_.store(0, std::memory_order_relaxed);
   const std::uint32_t g = ++generation_;
+  // Close the last job's state before its fields are rewritten: a thread that read that state
+  // (all chunks claimed) and then this job's chunk count must not claim "chunk N" of it. Its
+  // claim compares against the closed state and fails; a thread that sees a field written below
+  // (acquire) also sees the closed state (the stores are released in this order).
+  state_.store((static_cast<std::uint64_t>(g) << 32) | kClosed, std::memory_order_release);
+  fn_.store(fn, std::memory_order_release);
+  context_.store(context, std::memory_order_release);
+  chunks_.store(chunks, std::memory_order_release);
+  done_.store(0, std::memory_order_relaxed);
   state_.store(static_cast<std::uint64_t>(g) << 32, std::memory_order_release);
   published_.store(g);  // seq_cst: see sleep_mutex_
   if (sleepers_.load() > 0) {  // a system call only when a worker sleeps
@@ -86,13 +94,13 @@ void WorkerPool::work(std::uint32_t generation) {
   std::uint64_t s = state_.load(std::memory_order_acquire);
   for (;;) {
     if (static_cast<std::uint32_t>(s >> 32) != generation) return;
-    const int chunk = static_cast<int>(s & 0xFFFFFFFFu);
-    const int chunks = chunks_.load(std::memory_order_relaxed);
-    const ChunkFn fn = fn_.load(std::memory_order_relaxed);
-    const void* context = context_.load(std::memory_order_relaxed);
-    if (chunk >= chunks) return;
+    const std::uint32_t chunk = static_cast<std::uint32_t>(s & 0xFFFFFFFFu);
+    const int chunks = chunks_.load(std::memory_order_acquire);
+    const ChunkFn fn = fn_.load(std::memory_order_acquire);
+    const void* context = context_.load(std::memory_order_acquire);
+    if (chunk >= static_cast<std::uint32_t>(chunks)) return;  // kClosed included
     if (!state_.compare_exchange_weak(s, s + 1, std::memory_order_acq_rel, std::memory_order_acquire)) continue;
-    fn(context, chunk);
+    fn(context, static_cast<int>(chunk));
     if (done_.fetch_add(1) + 1 == chunks && caller_sleeps_.load()) {  // seq_cst: see sleep_mutex_
       const std::lock_guard<std::mutex> lock(sleep_mutex_);
       caller_wake_.notify_one();

@@ -13,9 +13,10 @@
 // The protocol: the caller publishes a job (the chunk function and the chunk count) and then a new
 // generation in `state_` (generation << 32 | next chunk). Threads claim chunk c by a compare-and-
 // swap of (g, c) to (g, c + 1), so a thread still holding generation g can never claim a chunk of
-// generation g + 1, and a successful claim proves the job's fields it read belonged to g (the
-// caller rewrites them only after g's last chunk is done, which no thread can claim past). The
-// caller returns when `done_` reaches the chunk count.
+// generation g + 1. Before the caller rewrites the job's fields for g + 1 it sets the state to
+// (g + 1, closed): a thread that read g's fields or g + 1's, and then claims against g's state,
+// fails, so a successful claim proves that the fields it read belonged to g. The caller returns
+// when `done_` reaches the chunk count.
 #pragma once
 
 #include <atomic>

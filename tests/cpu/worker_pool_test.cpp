@@ -37,12 +37,15 @@ void count_chunk(const void* context, int chunk) {
   t.busy[slot].store(0);
 }
 
+// Jobs follow each other at once with chunk counts that alternate between small and large: a
+// thread that read the end of one job and then the next job's larger count must not claim a
+// chunk "past the end" of the first (it would run a chunk twice, or after the caller returned).
 TEST(WorkerPool, EveryChunkRunsOnceOnAFreeSlotInEveryJob) {
   for (const int threads : {1, 2, 3}) {
     WorkerPool pool(threads);
     ASSERT_EQ(pool.size(), threads);
-    for (int job = 0; job < 2000; ++job) {
-      const int chunks = job % 37;  // 0 and 1 included: no chunk, and one run inline
+    for (int job = 0; job < 20000; ++job) {
+      const int chunks = job % 2 ? job % 37 : 2 + job % 5;  // 0 and 1 included: none, and one inline
       Tally tally(chunks, pool.size());
       pool.run(chunks, count_chunk, &tally);
       for (int c = 0; c < chunks; ++c) ASSERT_EQ(tally.runs[c].load(), 1) << "job " << job << " chunk " << c;
