@@ -5,6 +5,8 @@
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
 
+#include "cpu/vec_slot-inl.h"
+
 #include <algorithm>
 #include <bit>
 #include <cstring>
@@ -12,7 +14,7 @@
 #include "cpu/parallel.hpp"
 #include "stages.hpp"
 
-// The codes are assembled byte by byte in memory (see StoreWord), which presumes little-endian
+// The codes are assembled byte by byte in memory (see CensusBlock), which presumes little-endian
 // words, as on every target Highway dispatches to.
 static_assert(std::endian::native == std::endian::little);
 
@@ -38,6 +40,43 @@ constexpr int kTileStride = kMaxBlock + 2 * kMaxRadius;
 using D8 = hn::CappedTag<std::uint8_t, kMaxBlock>;
 using V8 = hn::Vec<D8>;
 
+#if HWY_TARGET != HWY_SCALAR
+// One u16 lane per pixel of half a block: pixel p + i of row r.
+template <class D16>
+HWY_INLINE hn::Vec<D16> LoadWide(D16 d16, const std::uint8_t* r, std::ptrdiff_t p, int i) {
+  return hn::PromoteTo(d16, hn::LoadU(hn::Rebind<std::uint8_t, D16>(), r + p + i));
+}
+
+// The MCT threshold of the pixels p .. p + Lanes(d16) - 1 of the centre row r1. The sums need 16
+// bits, so a block is done in two halves (plain functions, not lambdas: GCC did not inline a lambda
+// called twice here, and the call cost the stage a quarter of its time).
+template <class D16>
+HWY_INLINE hn::Vec<hn::Rebind<std::uint8_t, D16>> MctThresholdHalf(D16 d16, const std::uint8_t* r0,
+                                                                  const std::uint8_t* r1, const std::uint8_t* r2,
+                                                                  std::ptrdiff_t p, bool gaussian) {
+  hn::Vec<D16> t;
+  if (gaussian) {
+    // Column sums a + 2b + c, then left + 2 centre + right: weights 1 2 1 / 2 4 2 / 1 2 1,
+    // S <= 16 * 255; T = (S + 15) >> 4.
+    const auto left = hn::Add(hn::Add(LoadWide(d16, r0, p, -1), LoadWide(d16, r2, p, -1)),
+                              hn::ShiftLeft<1>(LoadWide(d16, r1, p, -1)));
+    const auto centre = hn::Add(hn::Add(LoadWide(d16, r0, p, 0), LoadWide(d16, r2, p, 0)),
+                                hn::ShiftLeft<1>(LoadWide(d16, r1, p, 0)));
+    const auto right = hn::Add(hn::Add(LoadWide(d16, r0, p, 1), LoadWide(d16, r2, p, 1)),
+                               hn::ShiftLeft<1>(LoadWide(d16, r1, p, 1)));
+    const auto s = hn::Add(hn::Add(left, right), hn::ShiftLeft<1>(centre));
+    t = hn::ShiftRight<4>(hn::Add(s, hn::Set(d16, 15)));
+  } else {
+    auto s = hn::Set(d16, 8);
+    for (int i = -1; i <= 1; ++i)
+      s = hn::Add(s, hn::Add(hn::Add(LoadWide(d16, r0, p, i), LoadWide(d16, r1, p, i)), LoadWide(d16, r2, p, i)));
+    t = hn::MulHigh(s, hn::Set(d16, 7282));  // (S + 8) / 9, see BoxDivisionExact
+  }
+  // t <= 255: exact
+  return hn::DemoteTo(hn::Rebind<std::uint8_t, D16>(), hn::BitCast(hn::RebindToSigned<D16>(), t));
+}
+#endif
+
 // Both tests become one 8-bit comparison per neighbour, bit = I(P') < T(P):
 // - CT: T = I(P).
 // - MCT: I(P') * norm < S  <=>  I(P') < S / norm  <=>  I(P') < ceil(S / norm) for integer I(P'),
@@ -61,32 +100,12 @@ HWY_INLINE V8 MctThreshold(D8 d8, const std::uint8_t* const* rows, std::ptrdiff_
   for (int i = -1; i <= 1; ++i) s += at(r0, i) + at(r1, i) + at(r2, i);
   return hn::Set(d8, static_cast<std::uint8_t>((s + 8) / 9));
 #else
-  // The sums need 16 bits: each half of the block in u16 lanes, then narrowed back to one vector.
+  // Each half of the block in u16 lanes, then narrowed back to one vector.
   const hn::Repartition<std::uint16_t, D8> d16;
-  const hn::Rebind<std::uint8_t, decltype(d16)> d8h;
-  const hn::RebindToSigned<decltype(d16)> di16;
   const std::ptrdiff_t nh = static_cast<std::ptrdiff_t>(hn::Lanes(d16));
-  hn::Vec<decltype(d8h)> half[2];
-  for (int part = 0; part < 2; ++part) {
-    const std::ptrdiff_t p = x + part * nh;
-    auto load = [&](const std::uint8_t* r, int i) { return hn::PromoteTo(d16, hn::LoadU(d8h, r + p + i)); };
-    hn::Vec<decltype(d16)> t;
-    if (gaussian) {
-      // Column sums a + 2b + c, then left + 2 centre + right: weights 1 2 1 / 2 4 2 / 1 2 1,
-      // S <= 16 * 255; T = (S + 15) >> 4.
-      hn::Vec<decltype(d16)> col[3];
-      for (int i = -1; i <= 1; ++i)
-        col[i + 1] = hn::Add(hn::Add(load(r0, i), load(r2, i)), hn::ShiftLeft<1>(load(r1, i)));
-      const auto s = hn::Add(hn::Add(col[0], col[2]), hn::ShiftLeft<1>(col[1]));
-      t = hn::ShiftRight<4>(hn::Add(s, hn::Set(d16, 15)));
-    } else {
-      auto s = hn::Set(d16, 8);
-      for (int i = -1; i <= 1; ++i) s = hn::Add(s, hn::Add(hn::Add(load(r0, i), load(r1, i)), load(r2, i)));
-      t = hn::MulHigh(s, hn::Set(d16, 7282));  // (S + 8) / 9, see BoxDivisionExact
-    }
-    half[part] = hn::DemoteTo(d8h, hn::BitCast(di16, t));  // t <= 255: exact
-  }
-  return hn::Combine(d8, half[1], half[0]);
+  const auto lower = MctThresholdHalf(d16, r0, r1, r2, x, gaussian);
+  const auto upper = MctThresholdHalf(d16, r0, r1, r2, x + nh, gaussian);
+  return hn::Combine(d8, upper, lower);
 #endif
 }
 
@@ -117,35 +136,27 @@ HWY_INLINE V8 CodeByte(D8 d8, const std::uint8_t* const* nb, std::ptrdiff_t x, V
   return acc;
 }
 
-// Writes one 32-bit word per pixel from `count` bytes of the string (1..4), the first byte most
-// significant and the word right-aligned. In little-endian memory the word's bytes are the string
-// bytes in reverse order followed by zeros, so one interleaving store writes the block in order.
-HWY_INLINE void StoreWord(D8 d8, const V8* bytes, int count, std::uint32_t* out) {
-  const V8 zero = hn::Zero(d8);
-  V8 lane[4] = {zero, zero, zero, zero};
-  for (int i = 0; i < count; ++i) lane[i] = bytes[count - 1 - i];
-  hn::StoreInterleaved4(lane[0], lane[1], lane[2], lane[3], d8, reinterpret_cast<std::uint8_t*>(out));
-}
-
 // Codes of the block of Lanes(d8) pixels starting at column x. nb[b] points at column 0 of the
 // row of neighbour b shifted by its horizontal offset, so nb[b] + x is neighbour b of pixel x.
+// Each 32-bit output word holds `count` bytes of the string (1..4), the first byte most significant
+// and the word right-aligned. In little-endian memory the word's bytes are the string bytes in
+// reverse order followed by zeros, so one interleaving store writes the block in order.
 template <int kRadius, bool kMct>
 HWY_INLINE void CensusBlock(D8 d8, const std::uint8_t* const* rows, const std::uint8_t* const* nb,
                             std::ptrdiff_t x, bool gaussian, std::uint32_t* const* out) {
   constexpr int kWindow = 2 * kRadius + 1;
   constexpr int kBytes = (kWindow * kWindow - 1) / 8;  // 1, 3, 6, 10: strings are whole bytes
   const V8 thr = kMct ? MctThreshold<kRadius>(d8, rows, x, gaussian) : hn::LoadU(d8, rows[kRadius] + x);
-  V8 bytes[4];
-  int word = 0, in_word = 0;
-  // Unrolled, the string bytes of a word stay in registers until StoreWord.
-#pragma GCC unroll 16
-  for (int k = 0; k < kBytes; ++k) {
-    bytes[in_word++] = CodeByte(d8, nb + 8 * k, x, thr);
-    if (in_word == 4 || k == kBytes - 1) {
-      StoreWord(d8, bytes, in_word, out[word] + x);
-      ++word;
-      in_word = 0;
-    }
+  // Unrolled, the string bytes of a word stay in registers until the store.
+#pragma GCC unroll 4
+  for (int word = 0; 4 * word < kBytes; ++word) {
+    const int first = 4 * word, count = std::min(4, kBytes - first);
+    // Byte i of the word in memory: string byte first + count - 1 - i, or zero.
+    const V8 b0 = CodeByte(d8, nb + 8 * (first + count - 1), x, thr);
+    const V8 b1 = count > 1 ? CodeByte(d8, nb + 8 * (first + count - 2), x, thr) : hn::Zero(d8);
+    const V8 b2 = count > 2 ? CodeByte(d8, nb + 8 * (first + count - 3), x, thr) : hn::Zero(d8);
+    const V8 b3 = count > 3 ? CodeByte(d8, nb + 8 * first, x, thr) : hn::Zero(d8);
+    hn::StoreInterleaved4(b0, b1, b2, b3, d8, reinterpret_cast<std::uint8_t*>(out[word] + x));
   }
 }
 

@@ -42,6 +42,7 @@
 #include <hwy/highway.h>
 
 #include "cpu/search_range-inl.h"
+#include "cpu/vec_slot-inl.h"
 
 #ifndef MCTSTEREO_CPU_MATCH_LAYOUT
 #define MCTSTEREO_CPU_MATCH_LAYOUT
@@ -200,17 +201,17 @@ void CostRectangle(const TileRows& tr, int s, int d, int xa, int xb, int ya, int
   // The V column vector at j, given the Hamming costs hrow(rr, j) of its columns in row rr.
   const auto column = [&](auto dv, auto hrow, int j) {
     using VV = decltype(hrow(0, j));
-    VV win[kA];
+    VecSlot<decltype(dv)> win[kA];
     VV v = hrow(0, j);
     win[0] = v;
     for (int rr = 1; rr < kA; ++rr) {
       win[rr] = hrow(rr, j);
-      v = hn::Add(v, win[rr]);
+      v = hn::Add(v, VV(win[rr]));
     }
     hn::StoreU(v, dv, v0 + j);
     for (int o = 1; o < outs; ++o) {
       const VV h = hrow(o + kA - 1, j);
-      v = hn::Sub(hn::Add(v, h), win[0]);
+      v = hn::Sub(hn::Add(v, h), VV(win[0]));
       for (int i = 0; i + 1 < kA; ++i) win[i] = win[i + 1];
       win[kA - 1] = h;
       hn::StoreU(v, dv, v0 + o * kVLen + j);
@@ -264,11 +265,12 @@ CostFn CostFor(int a) {
 
 // WTA result of one vector of pixels.
 struct WtaState {
-  V16 bc, bd;       // best cost (kInf: no candidate) and its disparity
-  V16 cm1, cp1;     // costs at bd - 1 and bd + 1 (read only where both are candidates)
-  V16 sec;          // smallest cost outside bd - 1 .. bd + 1 (kInf: none)
-  V16 pmin, pmin2;  // chunked pass only: smallest cost up to d - 1 and up to d - 2
-  V16 prev;         // chunked pass only: cost at d - 1
+  using Slot = VecSlot<D16>;
+  Slot bc, bd;       // best cost (kInf: no candidate) and its disparity
+  Slot cm1, cp1;     // costs at bd - 1 and bd + 1 (read only where both are candidates)
+  Slot sec;          // smallest cost outside bd - 1 .. bd + 1 (kInf: none)
+  Slot pmin, pmin2;  // chunked pass only: smallest cost up to d - 1 and up to d - 2
+  Slot prev;         // chunked pass only: cost at d - 1
   // Defined here, so that it carries the target's attributes: GCC's implicit constructor does not,
   // and cannot inline the vectors' constructors on aarch64 ("target specific option mismatch").
   WtaState() {}
@@ -416,7 +418,7 @@ HWY_INLINE V16 Finalize(const WtaState& st, V16 f, V16 l, int uniqueness_ratio) 
       // lies at least 1 / (2 e) > 2^-15 below the next one, far more than the rounding error of
       // the division (<= 2^-21 there), so truncating the float quotient gives q. (Checked for
       // every pair 0 <= |c0 - c2| <= e <= 12960 as well.)
-      const auto ok = hn::And(hn::Gt(st.bd, f), hn::Lt(st.bd, l));
+      const auto ok = hn::And(hn::Gt(V16(st.bd), f), hn::Lt(V16(st.bd), l));
       const V16 e = hn::Add(hn::Sub(st.cm1, hn::ShiftLeft<1>(st.bc)), st.cp1);
       const V16 ad = hn::Abs(hn::Sub(st.cm1, st.cp1));
       const auto offset = [&](hn::Vec<decltype(d32)> ad32, hn::Vec<decltype(d32)> e32) {
@@ -469,7 +471,7 @@ HWY_INLINE V16 MarginOf(const WtaState& st, V16 f, V16 l) {
   const V16 q = hn::Combine(d16, quotient(bc, sec, [&](V16 v) { return hn::UpperHalf(dh, v); }),
                             quotient(bc, sec, [&](V16 v) { return hn::LowerHalf(dh, v); }));
   const V16 inf = hn::Set(d16, kInf);
-  const auto flanked = hn::And(hn::Gt(st.bd, f), hn::Lt(st.bd, l));
+  const auto flanked = hn::And(hn::Gt(V16(st.bd), f), hn::Lt(V16(st.bd), l));
   const auto no_second = hn::AndNot(hn::Eq(bc, inf), hn::Eq(sec, inf));
   const auto zero = hn::Or(hn::Or(hn::Eq(bc, inf), hn::Eq(sec, hn::Zero(d16))), hn::AndNot(flanked, no_second));
   return hn::IfThenElse(hn::And(no_second, flanked), hn::Set(d16, 255), hn::IfThenZeroElse(zero, q));

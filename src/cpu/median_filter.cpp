@@ -6,6 +6,8 @@
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
 
+#include "cpu/vec_slot-inl.h"
+
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
@@ -66,7 +68,7 @@ using V16 = hn::Vec<D16>;
 // The comparator's fields are template arguments one by one (not a reference to the array
 // element, which Clang 14 does not take as a template argument).
 template <int a, int b, CmpKind kind>
-HWY_INLINE void Apply(V16* v) {
+HWY_INLINE void Apply(VecSlot<D16>* v) {
   if constexpr (kind == kSort) {
     const V16 lo = hn::Min(v[a], v[b]);
     v[b] = hn::Max(v[a], v[b]);
@@ -81,11 +83,11 @@ HWY_INLINE void Apply(V16* v) {
 // Expands a network into straight-line code: every wire index is a constant, so the compiler
 // keeps all wires in registers.
 template <const auto& kNet, std::size_t... I>
-HWY_INLINE void ApplyNetwork(V16* v, std::index_sequence<I...>) {
+HWY_INLINE void ApplyNetwork(VecSlot<D16>* v, std::index_sequence<I...>) {
   (Apply<kNet[I].a, kNet[I].b, kNet[I].kind>(v), ...);
 }
 template <const auto& kNet>
-HWY_INLINE void ApplyNetwork(V16* v) {
+HWY_INLINE void ApplyNetwork(VecSlot<D16>* v) {
   ApplyNetwork<kNet>(v, std::make_index_sequence<std::size(kNet)>());
 }
 
@@ -94,7 +96,7 @@ HWY_INLINE void ApplyNetwork(V16* v) {
 // median = med3(max of the lows, med3 of the mids, min of the highs).
 HWY_INLINE V16 Median3x3(const std::int16_t* const* win) {
   const D16 d;
-  V16 lo[3], mid[3], hi[3];
+  VecSlot<D16> lo[3], mid[3], hi[3];
   for (int i = 0; i < 3; ++i) {
     V16 a = hn::LoadU(d, win[0] + i), b = hn::LoadU(d, win[1] + i), c = hn::LoadU(d, win[2] + i);
     const V16 ab = hn::Min(a, b);
@@ -113,9 +115,9 @@ HWY_INLINE V16 Median3x3(const std::int16_t* const* win) {
 // Median of each lane's 5x5 window: sort the five columns, then the network above.
 HWY_INLINE V16 Median5x5(const std::int16_t* const* win) {
   const D16 d;
-  V16 v[25];
+  VecSlot<D16> v[25];
   for (int j = 0; j < 5; ++j) {
-    V16 col[5];
+    VecSlot<D16> col[5];
     for (int i = 0; i < 5; ++i) col[i] = hn::LoadU(d, win[i] + j);
     ApplyNetwork<kSort5>(col);
     for (int i = 0; i < 5; ++i) v[5 * i + j] = col[i];

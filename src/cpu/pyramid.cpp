@@ -5,6 +5,8 @@
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
 
+#include "cpu/vec_slot-inl.h"
+
 #include <algorithm>
 
 #include "cpu/parallel.hpp"
@@ -41,12 +43,18 @@ void DownRow(const std::uint8_t* const* rows, int src_width, int dst_width, std:
     const int k_end = std::min(x1 + 1, dst_width);
     // A load of 2n bytes from column 2k < W stays within the row's 64 bytes of slack.
     for (int k = std::max(x0 - 1, 0); k < k_end; k += n) {
-      hn::Vec<decltype(d8)> e8[5], o8[5];
-      for (int i = 0; i < 5; ++i) hn::LoadInterleaved2(d8, rows[i] + 2 * k, e8[i], o8[i]);
-      auto vsum = [&](const hn::Vec<decltype(d8)>* v) {
-        const auto outer = hn::Add(hn::PromoteTo(d16, v[0]), hn::PromoteTo(d16, v[4]));
-        const auto inner = hn::Add(hn::PromoteTo(d16, v[1]), hn::PromoteTo(d16, v[3]));
-        return hn::Add(hn::Add(outer, hn::Mul(inner, four)), hn::Mul(hn::PromoteTo(d16, v[2]), six));
+      VecSlot<decltype(d8)> e8[5], o8[5];
+      for (int i = 0; i < 5; ++i) {
+        hn::Vec<decltype(d8)> e, o;
+        hn::LoadInterleaved2(d8, rows[i] + 2 * k, e, o);
+        e8[i] = e;
+        o8[i] = o;
+      }
+      auto vsum = [&](const VecSlot<decltype(d8)>* v) {
+        const auto wide = [&](int i) { return hn::PromoteTo(d16, hn::Vec<decltype(d8)>(v[i])); };
+        const auto outer = hn::Add(wide(0), wide(4));
+        const auto inner = hn::Add(wide(1), wide(3));
+        return hn::Add(hn::Add(outer, hn::Mul(inner, four)), hn::Mul(wide(2), six));
       };
       hn::StoreU(vsum(e8), d16, even + (k - x0 + 1));
       hn::StoreU(vsum(o8), d16, odd + (k - x0 + 1));

@@ -19,6 +19,8 @@
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
 
+#include "cpu/vec_slot-inl.h"
+
 #include <algorithm>
 #include <cstdint>
 #include <cstring>
@@ -115,7 +117,7 @@ HWY_INLINE V16 MedianVector(const std::int16_t* const* map, const std::uint8_t* 
   const std::size_t n = hn::Lanes(d);
   const int centre = rows / 2;
   const V16 invalid = hn::Set(d, kInvalid);
-  VU16 centre_colour[kChannels];
+  VecSlot<DU16> centre_colour[kChannels];
   for (int c = 0; c < kChannels; ++c) centre_colour[c] = hn::PromoteTo(du16, hn::LoadU(dc8, colour[c][centre]));
 
   // Weights and whole disparities of the samples; the lane's range and total.
