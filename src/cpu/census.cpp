@@ -47,6 +47,13 @@ HWY_INLINE hn::Vec<D16> LoadWide(D16 d16, const std::uint8_t* r, std::ptrdiff_t 
   return hn::PromoteTo(d16, hn::LoadU(hn::Rebind<std::uint8_t, D16>(), r + p + i));
 }
 
+// a + 2b + c down the three rows at column offset i: one column of the 1 2 1 / 2 4 2 / 1 2 1 kernel.
+template <class D16>
+HWY_INLINE hn::Vec<D16> GaussianColumn(D16 d16, const std::uint8_t* r0, const std::uint8_t* r1,
+                                       const std::uint8_t* r2, std::ptrdiff_t p, int i) {
+  return hn::Add(hn::Add(LoadWide(d16, r0, p, i), LoadWide(d16, r2, p, i)), hn::ShiftLeft<1>(LoadWide(d16, r1, p, i)));
+}
+
 // The MCT threshold of the pixels p .. p + Lanes(d16) - 1 of the centre row r1. The sums need 16
 // bits, so a block is done in two halves (plain functions, not lambdas: GCC did not inline a lambda
 // called twice here, and the call cost the stage a quarter of its time).
@@ -58,12 +65,9 @@ HWY_INLINE hn::Vec<hn::Rebind<std::uint8_t, D16>> MctThresholdHalf(D16 d16, cons
   if (gaussian) {
     // Column sums a + 2b + c, then left + 2 centre + right: weights 1 2 1 / 2 4 2 / 1 2 1,
     // S <= 16 * 255; T = (S + 15) >> 4.
-    const auto left = hn::Add(hn::Add(LoadWide(d16, r0, p, -1), LoadWide(d16, r2, p, -1)),
-                              hn::ShiftLeft<1>(LoadWide(d16, r1, p, -1)));
-    const auto centre = hn::Add(hn::Add(LoadWide(d16, r0, p, 0), LoadWide(d16, r2, p, 0)),
-                                hn::ShiftLeft<1>(LoadWide(d16, r1, p, 0)));
-    const auto right = hn::Add(hn::Add(LoadWide(d16, r0, p, 1), LoadWide(d16, r2, p, 1)),
-                               hn::ShiftLeft<1>(LoadWide(d16, r1, p, 1)));
+    const auto left = GaussianColumn(d16, r0, r1, r2, p, -1);
+    const auto centre = GaussianColumn(d16, r0, r1, r2, p, 0);
+    const auto right = GaussianColumn(d16, r0, r1, r2, p, 1);
     const auto s = hn::Add(hn::Add(left, right), hn::ShiftLeft<1>(centre));
     t = hn::ShiftRight<4>(hn::Add(s, hn::Set(d16, 15)));
   } else {

@@ -276,6 +276,12 @@ struct WtaState {
   WtaState() {}
 };
 
+// Lanes whose winner has candidates on both sides (bd - 1 and bd + 1 inside F .. L).
+HWY_INLINE auto Flanked(const WtaState& st, V16 f, V16 l) {
+  const V16 bd = st.bd;
+  return hn::And(hn::Gt(bd, f), hn::Lt(bd, l));
+}
+
 // Per-lane candidate test as one unsigned compare: d is a candidate of the lane iff
 // (d - F) mod 2^16 <= wid, wid = L - F. Empty lanes (F = INT16_MAX > L) get wid = 0, which
 // only d = INT16_MAX could pass; disparities stay far below (Q4 output limits them to 2047).
@@ -418,7 +424,7 @@ HWY_INLINE V16 Finalize(const WtaState& st, V16 f, V16 l, int uniqueness_ratio) 
       // lies at least 1 / (2 e) > 2^-15 below the next one, far more than the rounding error of
       // the division (<= 2^-21 there), so truncating the float quotient gives q. (Checked for
       // every pair 0 <= |c0 - c2| <= e <= 12960 as well.)
-      const auto ok = hn::And(hn::Gt(V16(st.bd), f), hn::Lt(V16(st.bd), l));
+      const auto ok = Flanked(st, f, l);
       const V16 e = hn::Add(hn::Sub(st.cm1, hn::ShiftLeft<1>(st.bc)), st.cp1);
       const V16 ad = hn::Abs(hn::Sub(st.cm1, st.cp1));
       const auto offset = [&](hn::Vec<decltype(d32)> ad32, hn::Vec<decltype(d32)> e32) {
@@ -471,7 +477,7 @@ HWY_INLINE V16 MarginOf(const WtaState& st, V16 f, V16 l) {
   const V16 q = hn::Combine(d16, quotient(bc, sec, [&](V16 v) { return hn::UpperHalf(dh, v); }),
                             quotient(bc, sec, [&](V16 v) { return hn::LowerHalf(dh, v); }));
   const V16 inf = hn::Set(d16, kInf);
-  const auto flanked = hn::And(hn::Gt(V16(st.bd), f), hn::Lt(V16(st.bd), l));
+  const auto flanked = Flanked(st, f, l);
   const auto no_second = hn::AndNot(hn::Eq(bc, inf), hn::Eq(sec, inf));
   const auto zero = hn::Or(hn::Or(hn::Eq(bc, inf), hn::Eq(sec, hn::Zero(d16))), hn::AndNot(flanked, no_second));
   return hn::IfThenElse(hn::And(no_second, flanked), hn::Set(d16, 255), hn::IfThenZeroElse(zero, q));

@@ -21,7 +21,6 @@ template <class D>
 class VecSlot {
  public:
   VecSlot() {}
-  VecSlot(hwy::HWY_NAMESPACE::Vec<D> v) { *this = v; }  // NOLINT: a vector converts to a slot
   operator hwy::HWY_NAMESPACE::Vec<D>() const { return hwy::HWY_NAMESPACE::LoadU(D(), lanes_); }  // NOLINT
   VecSlot& operator=(hwy::HWY_NAMESPACE::Vec<D> v) {
     hwy::HWY_NAMESPACE::StoreU(v, D(), lanes_);
