@@ -36,6 +36,9 @@ static_assert(BoxDivisionExact());
 constexpr int kMaxBlock = 64;
 constexpr int kMaxRadius = 4;
 constexpr int kTileStride = kMaxBlock + 2 * kMaxRadius;
+// Blocks of a row whose window leaves it: at most kRadius at the left end and kRadius + 1 at the
+// right (fewer unless a block is narrower than kRadius, as on the scalar target).
+constexpr int kMaxEdges = 2 * kMaxRadius + 1;
 
 using D8 = hn::CappedTag<std::uint8_t, kMaxBlock>;
 using V8 = hn::Vec<D8>;
@@ -233,46 +236,49 @@ void CensusImpl(const Plane<std::uint8_t>& image, bool gaussian, CensusCodes& co
     for (int y = y0; y < y1; ++y) {
       const std::uint8_t* rows[kWindow];
       for (int j = 0; j < kWindow; ++j) rows[j] = image.row(clamp_index(y - kRadius + j, h));
-      // Blocks whose window leaves the row are computed from a tile of the window rows with the
-      // edge pixels repeated; column kRadius of the tile is the block's first pixel.
-      HWY_ALIGN std::uint8_t tile[kWindow * kTileStride];
-      const std::uint8_t* tile_rows[kWindow];
-      for (int j = 0; j < kWindow; ++j) tile_rows[j] = tile + j * kTileStride + kRadius;
       std::uint32_t* out[3];
       for (int k = 0; k < words; ++k) out[k] = codes.plane[k].row(y);
-      // A row narrower than a block is written through a stack buffer: a whole block would run past
-      // the row's slack.
-      HWY_ALIGN std::uint32_t narrow[3][kMaxBlock];
-      std::uint32_t* narrow_out[3] = {narrow[0], narrow[1], narrow[2]};
-
-      // A block at either end of the row reads its window from a tile with the edge pixels
-      // repeated. The last block overlaps the one before rather than running past the row; the
-      // overlapped pixels get the same codes again.
-      const auto edge_block = [&](int x) {
-        const int bx = w >= block ? std::min(x, w - block) : 0;
+      // The blocks whose window lies inside the row start at the first block x >= kRadius and
+      // end before x_end.
+      const int first = (kRadius + block - 1) / block * block;
+      int x_end = first;
+      while (x_end + block + kRadius <= w) x_end += block;
+      // The blocks at either end (whose window leaves the row) read their window from a tile
+      // with the edge pixels repeated, column kRadius of the tile being the block's first pixel.
+      // The last block overlaps the one before rather than running past the row (the overlapped
+      // pixels get the same codes again). The tiles are filled before the interior blocks run:
+      // a block's loads straddle the copies' stores, cannot be forwarded from them, and would
+      // wait for them to reach the cache if they came right after.
+      int edge_x[kMaxEdges];
+      int edges = 0;
+      for (int e = 0; e < std::min(first, w); e += block) edge_x[edges++] = e;
+      for (int e = x_end; e < w; e += block) edge_x[edges++] = w >= block ? std::min(e, w - block) : 0;
+      HWY_ALIGN std::uint8_t tiles[kMaxEdges][kWindow * kTileStride];
+      for (int i = 0; i < edges; ++i) {
+        std::uint8_t* tile = tiles[i];
         if (w >= block + kRadius && block >= 2 * kMaxRadius) {
-          for (int j = 0; j < kWindow; ++j) EdgeTileRow<kRadius>(rows[j], w, bx, block, tile + j * kTileStride);
+          for (int j = 0; j < kWindow; ++j) EdgeTileRow<kRadius>(rows[j], w, edge_x[i], block, tile + j * kTileStride);
         } else {
           for (int j = 0; j < kWindow; ++j)
-            ClampedCopy(rows[j], w, bx - kRadius, block + 2 * kRadius, tile + j * kTileStride);
+            ClampedCopy(rows[j], w, edge_x[i] - kRadius, block + 2 * kRadius, tile + j * kTileStride);
         }
-        if (w >= block) {
-          std::uint32_t* shifted[3];
-          for (int k = 0; k < words; ++k) shifted[k] = out[k] + bx;
-          CensusBlock<kRadius, kMct>(d8, tile_rows, 0, gaussian, shifted);
-        } else {
-          CensusBlock<kRadius, kMct>(d8, tile_rows, 0, gaussian, narrow_out);
+      }
+      // The interior blocks, in a loop without calls: the bit weights and the row pointers stay
+      // in registers (with the copies in the same loop, GCC broadcast the seven weights again in
+      // every block).
+      for (int x = first; x < x_end; x += block) CensusBlock<kRadius, kMct>(d8, rows, x, gaussian, out);
+      // A row narrower than a block is written through a stack buffer: a whole block would run
+      // past the row's slack.
+      HWY_ALIGN std::uint32_t narrow[3][kMaxBlock];
+      for (int i = 0; i < edges; ++i) {
+        const std::uint8_t* tile_rows[kWindow];
+        for (int j = 0; j < kWindow; ++j) tile_rows[j] = tiles[i] + j * kTileStride + kRadius;
+        std::uint32_t* dst[3];
+        for (int k = 0; k < words; ++k) dst[k] = w >= block ? out[k] + edge_x[i] : narrow[k];
+        CensusBlock<kRadius, kMct>(d8, tile_rows, 0, gaussian, dst);
+        if (w < block)
           for (int k = 0; k < words; ++k) std::memcpy(out[k], narrow[k], sizeof(std::uint32_t) * w);
-        }
-      };
-      // The blocks whose window lies inside the row, in a loop without calls: the bit weights and
-      // the row pointers then stay in registers (with the edge blocks' copies in the same loop,
-      // GCC broadcast the seven weights again in every block).
-      const int first = (kRadius + block - 1) / block * block;  // the first block x >= kRadius
-      int x = first;
-      for (; x + block + kRadius <= w; x += block) CensusBlock<kRadius, kMct>(d8, rows, x, gaussian, out);
-      for (int e = 0; e < std::min(first, w); e += block) edge_block(e);
-      for (; x < w; x += block) edge_block(x);
+      }
       // Replicated columns for the matching stage's window.
       for (int k = 0; k < words; ++k) {
         std::uint32_t* r = out[k];
