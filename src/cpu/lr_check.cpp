@@ -6,8 +6,12 @@
 // smooth, though: the rounded disparities k of one vector of pixels span only a few values. So
 // for each k from the vector's smallest to its largest, one unaligned load of the other row
 // shifted by k serves every lane whose disparity rounds to k. Vectors spanning more than
-// kMaxSpan values (noise, depth edges), or whose shifted loads would leave the row and its slack,
-// take the scalar loop of the reference instead.
+// kMaxSpan values (noise), or whose shifted loads would leave the row and its slack, take the
+// scalar loop of the reference instead. A span up to kMaxSpan (a depth edge inside the vector)
+// costs one load and a select per value, still well below the scalar loop's 32 pixels.
+// The first vectors of a row point before its start wherever their disparities exceed x: they
+// read a copy of the row's start behind kFront invalid entries, which fail the check as a
+// partner outside the image does.
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "cpu/lr_check.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
@@ -24,7 +28,9 @@ HWY_BEFORE_NAMESPACE();
 namespace mctstereo::detail::cpu::HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
-constexpr int kMaxSpan = 8;
+constexpr int kMaxSpan = 32;
+constexpr int kFront = 64;         // invalid entries before the copy of a row's start
+constexpr int kExtColumns = 128;   // columns of the row copied behind them
 
 // The reference's rule for pixels [x0, x1) of a row.
 HWY_INLINE void LrCheckScalar(const std::int16_t* s, const std::int16_t* o, int w, int x0, int x1, int dir,
@@ -61,10 +67,16 @@ void LrCheck(const Plane<std::int16_t>& src, const Plane<std::int16_t>& other, i
   const int vector_end = vectors ? w / n * n : 0;
 
   parallel_lines(h, [&](int y0, int y1) {
+    // Entries past the copied columns (rows narrower than kExtColumns) stay invalid; loads reach
+    // at most a vector past kExtColumns.
+    HWY_ALIGN std::int16_t ext[kFront + kExtColumns + 32];
+    std::fill_n(ext, kFront + kExtColumns + 32, kInvalid);
+    const int ext_columns = std::min(w, kExtColumns);
     for (int y = y0; y < y1; ++y) {
       const std::int16_t* s = src.row(y);
       const std::int16_t* o = other.row(y);
       std::int16_t* out = dst.row(y);
+      bool ext_filled = false;  // whether ext holds this row's start
       for (int x = 0; x < vector_end; x += n) {
         const auto v = hn::LoadU(d, s + x);
         // (v + 8) >> 4 without the int16 overflow of v + 8: floor(v / 16) + (bit 3 of v).
@@ -79,17 +91,26 @@ void LrCheck(const Plane<std::int16_t>& src, const Plane<std::int16_t>& other, i
         // Lane i of the load for k reads o[x + i + dir k]: from x + dir k, n lanes.
         const int first = dir < 0 ? x - kmax : x + kmin;
         const int last = (dir < 0 ? x - kmin : x + kmax) + n;  // one past the last value read
-        if (kmax - kmin >= kMaxSpan || first < 0 || last > w + slack) {
+        const bool before_row = first < 0;
+        if (kmax - kmin >= kMaxSpan || last > w + slack ||
+            (before_row && (first < -kFront || last > kExtColumns))) {
           LrCheckScalar(s, o, w, x, x + n, dir, threshold_q4, out);
           continue;
         }
+        const std::int16_t* base = o;
+        if (before_row) {
+          if (!ext_filled) std::copy_n(o, ext_columns, ext + kFront);
+          ext_filled = true;
+          base = ext + kFront;
+        }
         auto u = invalid;
         for (int kk = kmin; kk <= kmax; ++kk) {
-          const auto shifted = hn::LoadU(d, o + x + dir * kk);
+          const auto shifted = hn::LoadU(d, base + x + dir * kk);
           u = hn::IfThenElse(hn::Eq(k, hn::Set(d, static_cast<std::int16_t>(kk))), shifted, u);
         }
-        // The partner must lie in the image: 0 <= x + i + dir k < w. The first half holds for every
-        // valid lane since first >= 0; the loads may reach into the slack past w.
+        // The partner must lie in the image: 0 <= x + i + dir k < w. Partners before column 0
+        // read kInvalid from ext's front and fail below; the loads may reach into the slack
+        // past w.
         const auto xo = hn::Add(hn::Iota(d, x), dir < 0 ? hn::Neg(k) : k);
         const auto inside = hn::Lt(xo, hn::Set(d, static_cast<std::int16_t>(w)));
         const auto diff = hn::Sub(hn::BitCast(du, hn::Max(v, u)), hn::BitCast(du, hn::Min(v, u)));

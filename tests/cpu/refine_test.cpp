@@ -204,6 +204,32 @@ TEST(RefineCpu, LrCheckMatchesReference) {
   }
 }
 
+// Vectors whose rounded disparities span 2 to 30 values (the shifted-load path up to its limit of
+// 32, and beyond it) and first vectors of a row whose partners lie before column 0 (read from the
+// copy behind invalid entries), with maps wider than that copy and narrower.
+TEST(RefineCpu, LrCheckMatchesReferenceOnWideSpansAndRowStarts) {
+  std::uint32_t seed = 900;
+  for (const auto& w_h : std::vector<std::pair<int, int>>{{640, 6}, {200, 5}, {97, 4}, {33, 3}, {130, 2}}) {
+    const auto w = w_h.first;
+    const auto h = w_h.second;
+    for (int span : {2, 9, 17, 30, 40}) {
+      for (int offset : {0, 50, 70}) {
+        const auto a = random_disparity(w, h, ++seed, 16 * offset, 16 * (offset + span) - 1, 0.05);
+        const auto b = random_disparity(w, h, ++seed, 16 * offset, 16 * (offset + span) - 1, 0.05);
+        for (int dir : {-1, +1}) {
+          Plane<std::int16_t> expected(w, h), actual(w, h);
+          reference::lr_check(a, b, dir, 16, expected);
+          for_each_target_and_threads([&](const std::string& where) {
+            cpu::lr_check(a, b, dir, 16, actual);
+            ASSERT_EQ(first_difference(expected, actual), "")
+                << w << "x" << h << " span " << span << " offset " << offset << " dir " << dir << " on " << where;
+          });
+        }
+      }
+    }
+  }
+}
+
 TEST(RefineCpu, LrCheckMatchesReferenceOnSmoothMaps) {
   std::uint32_t seed = 700;
   auto sizes = awkward_sizes();
