@@ -1431,8 +1431,11 @@ def speed_scaling(report, bench, file_name):
                "a vector, so the per-pixel work around the candidates (the search range from the 3x3 prior, the "
                "rectangle of a tile that holds a candidate, the sub-pixel fit and the uniqueness test, the right view "
                "matched only for the LR check) costs more than the popcounts; the arithmetic bound would need the "
-               "whole band of a tile to be as narrow as its pixels' ranges. **Census** is an ALU stage (24 compares "
-               "per pixel in byte lanes) far from any limit but small. **Refine** (median, LR check, fill) and "
+               "whole band of a tile to be as narrow as its pixels' ranges. **Census** is an ALU stage: 24 byte "
+               "compares, as many masked adds and the interleaving stores per vector of pixels, whose loads address "
+               "the window's five row pointers at constant offsets; the blocks at a row's ends read a copy of their "
+               "window made before the row's interior blocks run, and cost about as much as interior ones. "
+               "**Refine** (median, LR check, fill) and "
                "**gray**/**pyramid** are passes over whole planes, bound by memory traffic once a plane leaves the "
                "L2 cache: their time per pixel is what grows at 4K. Band SGM (`balanced`, `quality`) is bound by "
                "memory: the path sums read and write the cost volume four times per frame.")
