@@ -232,31 +232,33 @@ void CensusImpl(const Plane<std::uint8_t>& image, bool gaussian, CensusCodes& co
   const int w = image.width(), h = image.height();
   const int words = codes.words;
 
+  // The block layout is the same in every row. The blocks whose window lies inside the row start
+  // at the first block x >= kRadius and end before x_end. The blocks at either end (whose window
+  // leaves the row) read their window from a tile with the edge pixels repeated, column kRadius
+  // of the tile being the block's first pixel; the last block overlaps the one before rather
+  // than running past the row (the overlapped pixels get the same codes again).
+  const int first = (kRadius + block - 1) / block * block;
+  int x_end = first;
+  while (x_end + block + kRadius <= w) x_end += block;
+  int edge_x[kMaxEdges];
+  int edges = 0;
+  for (int e = 0; e < std::min(first, w); e += block) edge_x[edges++] = e;
+  for (int e = x_end; e < w; e += block) edge_x[edges++] = w >= block ? std::min(e, w - block) : 0;
+  const bool fixed_copy = w >= block + kRadius && block >= 2 * kMaxRadius;  // EdgeTileRow's condition
+
   parallel_lines(h, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
       const std::uint8_t* rows[kWindow];
       for (int j = 0; j < kWindow; ++j) rows[j] = image.row(clamp_index(y - kRadius + j, h));
       std::uint32_t* out[3];
       for (int k = 0; k < words; ++k) out[k] = codes.plane[k].row(y);
-      // The blocks whose window lies inside the row start at the first block x >= kRadius and
-      // end before x_end.
-      const int first = (kRadius + block - 1) / block * block;
-      int x_end = first;
-      while (x_end + block + kRadius <= w) x_end += block;
-      // The blocks at either end (whose window leaves the row) read their window from a tile
-      // with the edge pixels repeated, column kRadius of the tile being the block's first pixel.
-      // The last block overlaps the one before rather than running past the row (the overlapped
-      // pixels get the same codes again). The tiles are filled before the interior blocks run:
-      // a block's loads straddle the copies' stores, cannot be forwarded from them, and would
-      // wait for them to reach the cache if they came right after.
-      int edge_x[kMaxEdges];
-      int edges = 0;
-      for (int e = 0; e < std::min(first, w); e += block) edge_x[edges++] = e;
-      for (int e = x_end; e < w; e += block) edge_x[edges++] = w >= block ? std::min(e, w - block) : 0;
+      // The edge tiles are filled before the interior blocks run: a block's loads straddle the
+      // copies' stores, cannot be forwarded from them, and would wait for them to reach the cache
+      // if they came right after.
       HWY_ALIGN std::uint8_t tiles[kMaxEdges][kWindow * kTileStride];
       for (int i = 0; i < edges; ++i) {
         std::uint8_t* tile = tiles[i];
-        if (w >= block + kRadius && block >= 2 * kMaxRadius) {
+        if (fixed_copy) {
           for (int j = 0; j < kWindow; ++j) EdgeTileRow<kRadius>(rows[j], w, edge_x[i], block, tile + j * kTileStride);
         } else {
           for (int j = 0; j < kWindow; ++j)
