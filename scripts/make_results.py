@@ -1285,6 +1285,10 @@ def speed_stages(report, bench, file_name, d, t):
                  "rectangle of pixels whose search ranges contain it, and on real scenes the union of the ranges in "
                  "a tile is wider than the pixels' own ranges; tighter per-row candidate spans are the next step.")
     report.add(text)
+    report.add("The local presets (`realtime` and the thesis variants) make their census codes inside the match "
+               "stage (census_match: each strip of rows gets its codes right before its tiles are matched), so "
+               "their census column is 0 and their match column includes the census of both views; the band SGM "
+               "presets still run the census as a stage of its own.")
     # How the match stage grows with the range, at the headline-like size.
     if len(bench.disparities) > 1:
         size = pick(bench.sizes, (640, 480))
@@ -1305,8 +1309,12 @@ def speed_stages(report, bench, file_name, d, t):
             falling.append(m)
     if falling:
         report.add(f"The ratio to StereoBM falls with the frame size for {join_words(f'`{m}`' for m in falling)}: "
-                   "every stage makes a full pass over full-size planes, which stop fitting in the cache as the "
-                   "frame grows; a pipeline over row bands that keeps a band of every plane in cache is the remedy.")
+                   "the passes over full-size planes (gray, pyramid, refinement, and for band SGM the census, the "
+                   "costs and the path sums) stop fitting in the cache as the frame grows. The local presets' census "
+                   "and matching already run over strips of rows that stay in the cache; carrying the other stages "
+                   "into those strips is the remedy. (The stretched frames here also magnify the pair: above "
+                   "1280x720 its disparities exceed the range and its texture blurs, see the next section for the "
+                   "cost per pixel at constant content.)")
 
 
 def speed_backends(report, bench, file_name):
@@ -1431,10 +1439,14 @@ def speed_scaling(report, bench, file_name):
                "a vector, so the per-pixel work around the candidates (the search range from the 3x3 prior, the "
                "rectangle of a tile that holds a candidate, the sub-pixel fit and the uniqueness test, the right view "
                "matched only for the LR check) costs more than the popcounts; the arithmetic bound would need the "
-               "whole band of a tile to be as narrow as its pixels' ranges. **Census** is an ALU stage: 24 byte "
-               "compares, as many masked adds and the interleaving stores per vector of pixels, whose loads address "
-               "the window's five row pointers at constant offsets; the blocks at a row's ends read a copy of their "
-               "window made before the row's interior blocks run, and cost about as much as interior ones. "
+               "whole band of a tile to be as narrow as its pixels' ranges. For `realtime` the stage's time here "
+               "includes the census of both views, which runs inside it strip by strip (census_match). **Census** is "
+               "an ALU stage: 24 byte compares, as many masked adds and the interleaving stores per vector of "
+               "pixels, whose loads address the window's five row pointers at constant offsets; the blocks at a "
+               "row's ends read a copy of their window made before the row's interior blocks run, and cost about as "
+               "much as interior ones. Made strip by strip into a ring of rows in the matching thread's scratch, "
+               "the codes are read from the L1/L2 cache instead of from 33 MB planes per view at 4K, which made "
+               "the census and the matching cost more per pixel there than at 640x480. "
                "**Refine** (median, LR check, fill) and "
                "**gray**/**pyramid** are passes over whole planes, bound by memory traffic once a plane leaves the "
                "L2 cache: their time per pixel is what grows at 4K. Band SGM (`balanced`, `quality`) is bound by "

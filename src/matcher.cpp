@@ -41,8 +41,8 @@ struct StageTable {
   decltype(&detail::reference::to_gray) to_gray;
   decltype(&detail::reference::pyramid_down) pyramid_down;
   decltype(&detail::reference::census_transform) census_transform;
-  decltype(&detail::reference::match) match;
-  decltype(&detail::reference::match_scratch_bytes) match_scratch_bytes;
+  decltype(&detail::reference::census_match) census_match;
+  decltype(&detail::reference::census_match_scratch_bytes) census_match_scratch_bytes;
   decltype(&detail::reference::median_filter) median_filter;
   decltype(&detail::reference::lr_check) lr_check;
   decltype(&detail::reference::remove_speckles) remove_speckles;
@@ -59,14 +59,19 @@ struct StageTable {
 
 #define MCTSTEREO_STAGE_TABLE(ns)                                                                \
   StageTable {                                                                                   \
-    &ns::to_gray, &ns::pyramid_down, &ns::census_transform, &ns::match,                          \
-        &ns::match_scratch_bytes, &ns::median_filter, &ns::lr_check, &ns::remove_speckles,       \
+    &ns::to_gray, &ns::pyramid_down, &ns::census_transform, &ns::census_match,                   \
+        &ns::census_match_scratch_bytes, &ns::median_filter, &ns::lr_check, &ns::remove_speckles,       \
         &ns::fill_invalid, &ns::upscale, &ns::sgm_costs, &ns::sgm_aggregate, &ns::sgm_scratch_bytes, \
         &ns::sgm_select, &ns::confidence, &ns::split_channels, &ns::weighted_median              \
   }
 const StageTable kReferenceStages = MCTSTEREO_STAGE_TABLE(detail::reference);
 const StageTable kCpuStages = MCTSTEREO_STAGE_TABLE(detail::cpu);
 #undef MCTSTEREO_STAGE_TABLE
+
+// Whole planes of census codes per level: band SGM's costs read them, and the reference backend's
+// census_match makes its codes in them. The cpu backend's census_match makes the codes of the
+// box presets strip by strip in its scratch and needs none.
+bool whole_code_planes(const StereoParams& p, Backend backend) { return p.sgm() || backend == Backend::Reference; }
 
 // Everything one pyramid level holds for both views; its plan (sizes, range, windows, band)
 // comes from plan_levels().
@@ -193,7 +198,8 @@ struct Matcher::Impl {
         // Level 0 of the pyramid is the last working-scale reduction itself.
         if (levels.size() > 1) L.image[v].reset(lw, lh);
         L.codes[v].words = plan.census_words;
-        for (int k = 0; k < L.codes[v].words; ++k) L.codes[v].plane[k].reset(lw, lh, detail::kCodePad);
+        if (whole_code_planes(p, backend))
+          for (int k = 0; k < L.codes[v].words; ++k) L.codes[v].plane[k].reset(lw, lh, detail::kCodePad);
       }
       for (int v = 0; v < views; ++v) {
         L.disparity[v].reset(lw, lh);
@@ -219,11 +225,14 @@ struct Matcher::Impl {
       confidence_q8.reset(levels[0].width, levels[0].height);
       out_confidence.reset(w, h);
     }
-    const int max_shd = std::max(p.shd_window, p.coarse_shd_window);
-    match_scratch.threads = threads;
-    match_scratch.bytes_per_thread =
-        (stages->match_scratch_bytes(levels[0].width, plan.max_range, max_shd) + 63) / 64 * 64;
-    match_scratch.data = detail::allocate_aligned<std::uint8_t>(match_scratch.bytes_per_thread * threads);
+    if (!p.sgm()) {
+      const int max_shd = std::max(p.shd_window, p.coarse_shd_window);
+      match_scratch.threads = threads;
+      match_scratch.bytes_per_thread =
+          (stages->census_match_scratch_bytes(levels[0].width, plan.max_range, max_shd, plan.census_words) + 63) /
+          64 * 64;
+      match_scratch.data = detail::allocate_aligned<std::uint8_t>(match_scratch.bytes_per_thread * threads);
+    }
     if (p.speckle_size > 0) {
       speckle_scratch.label.reset(levels[0].width, levels[0].height);
       speckle_scratch.stack =
@@ -440,6 +449,25 @@ struct Matcher::Impl {
     run_frame(left, right);
   }
 
+  // Census and local matching of level l: each view searches around its own coarser map.
+  detail::CensusMatchJob census_match_job(int l, const detail::CensusConfig& census, int views) {
+    Level& L = levels[l];
+    detail::CensusMatchJob job;
+    job.census = census;
+    job.views = views;
+    job.codes = L.codes;
+    for (int v = 0; v < 2; ++v) {
+      job.image[v] = &level_image(l, v);
+      if (v >= views) continue;
+      const Plane<std::int16_t>* prior = L.coarsest ? nullptr : &levels[l + 1].disparity[v];
+      job.ranges[v] = detail::SearchRanges::around(prior, L.dmin, L.dmax, L.radius);
+      job.config[v] = {v == 0 ? -1 : +1, L.shd_window, params.subpixel && l == 0, params.uniqueness_ratio};
+      job.disparity[v] = &L.disparity[v];
+    }
+    job.margin = l == 0 && want_confidence ? &margin : nullptr;
+    return job;
+  }
+
   // The recipe of one frame on the host backends (reference, cpu).
   void run_frame(const ImageView& left, const ImageView& right) {
     const ImageView* input[2] = {&left, &right};
@@ -470,27 +498,18 @@ struct Matcher::Impl {
 
     const detail::CensusConfig census{params.census, params.census_window, params.mct_kernel};
     for (int l = static_cast<int>(levels.size()) - 1; l >= 0; --l) {
-      Level& L = levels[l];
-      for (int v = 0; v < 2; ++v) stages->census_transform(level_image(l, v), census, L.codes[v]);
-      slot_ms[kCensus] += clock.lap_ms();
-
-      const bool coarsest = L.coarsest;
       if (params.sgm()) {
-        match_sgm(l, coarsest ? nullptr : &levels[l + 1].disparity[0]);
-        slot_ms[kMatch] += clock.lap_ms();
-        refine_level(L, l == 0, clock);
-        continue;
-      }
-      for (int v = 0; v < views; ++v) {
-        const Plane<std::int16_t>* prior = coarsest ? nullptr : &levels[l + 1].disparity[v];
-        const auto ranges = detail::SearchRanges::around(prior, L.dmin, L.dmax, L.radius);
-        const detail::MatchConfig match{v == 0 ? -1 : +1, L.shd_window, params.subpixel && l == 0,
-                                        params.uniqueness_ratio};
-        Plane<std::uint8_t>* margins = v == 0 && l == 0 && want_confidence ? &margin : nullptr;
-        stages->match(L.codes[v], L.codes[1 - v], ranges, match, match_scratch, L.disparity[v], margins);
+        Level& L = levels[l];
+        for (int v = 0; v < 2; ++v) stages->census_transform(level_image(l, v), census, L.codes[v]);
+        slot_ms[kCensus] += clock.lap_ms();
+        match_sgm(l, L.coarsest ? nullptr : &levels[l + 1].disparity[0]);
+      } else {
+        // The codes are made inside the stage (strip by strip on the cpu backend): its time is
+        // the match stage's.
+        stages->census_match(census_match_job(l, census, views), match_scratch);
       }
       slot_ms[kMatch] += clock.lap_ms();
-      refine_level(L, l == 0, clock);
+      refine_level(levels[l], l == 0, clock);
     }
 
     const int scale = params.working_scale;
@@ -656,13 +675,17 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   for (const detail::Size2& s : plan.working) total += (params.weighted_median ? 5 : 2) * gray_bytes(s.width, s.height);
   for (const detail::LevelSpec& L : plan.levels) {
     if (L.scale_log2 > scale_steps) total += 2 * gray_bytes(L.width, L.height);
-    total += 2 * words * Plane<std::uint32_t>::bytes_for(L.width, L.height, detail::kCodePad);
+    if (whole_code_planes(params, Backend::Cpu))
+      total += 2 * words * Plane<std::uint32_t>::bytes_for(L.width, L.height, detail::kCodePad);
     total += views * 2 * map_bytes(L.width, L.height);
     if (params.sgm()) total += detail::SgmVolume::plane_bytes_for(L.width, L.height, L.sgm_band, words);
   }
   const int w0 = plan.finest().width, h0 = plan.finest().height;
   const int threads = options.threads > 0 ? options.threads : default_threads();
-  total += threads * detail::cpu::match_scratch_bytes(w0, plan.max_range, std::max(params.shd_window, params.coarse_shd_window));
+  if (!params.sgm()) {
+    const int max_shd = std::max(params.shd_window, params.coarse_shd_window);
+    total += threads * ((detail::cpu::census_match_scratch_bytes(w0, plan.max_range, max_shd, words) + 63) / 64 * 64);
+  }
   if (params.speckle_size > 0) total += Plane<std::int32_t>::bytes_for(w0, h0) + static_cast<std::size_t>(w0) * h0 * 4;
   if (params.sgm()) {
     // The cost and sum storage every level shares and the stages' scratch.

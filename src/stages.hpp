@@ -137,6 +137,21 @@ struct SearchRanges {
   }
 };
 
+/// One level's census and local matching (census_match): both views' images and the views to
+/// match, view 0 the left (dir -1) and view 1 the right (dir +1).
+struct CensusMatchJob {
+  std::array<const Plane<std::uint8_t>*, 2> image{};
+  CensusConfig census;
+  int views = 1;  ///< 1: the left view only; 2: both
+  std::array<SearchRanges, 2> ranges;
+  std::array<MatchConfig, 2> config;
+  std::array<Plane<std::int16_t>*, 2> disparity{};
+  Plane<std::uint8_t>* margin = nullptr;  ///< view 0's margins (as match() gives them), or null
+  /// Whole code planes of both views, for a backend that makes the codes in whole planes (the
+  /// reference); the cpu backend makes them strip by strip in its scratch and needs none.
+  CensusCodes* codes = nullptr;
+};
+
 /// Band SGM (docs/PIPELINE.md, "Band SGM"): the candidates, costs and path sums of one level,
 /// for the left view as reference (the right view's map comes from the same sums).
 ///
@@ -374,6 +389,12 @@ inline int level_max(int dmax, int l) { return -((-dmax) >> l); }
   /* Scratch bytes one thread of match() needs for images `width` wide and ranges up to         */ \
   /* max_range candidates.                                                                       */ \
   std::size_t match_scratch_bytes(int width, int max_range, int shd_window);                      \
+  /* census_transform() of both views, then match() of each of job.views views (view v: ref v, */ \
+  /* other 1 - v; margins for view 0) in one stage, so that a backend may make each strip's    */ \
+  /* codes right before it matches the strip, while they are in the cache (cpu).               */ \
+  void census_match(const CensusMatchJob& job, MatchScratch& scratch);                           \
+  /* Scratch bytes one thread of census_match() needs (match_scratch_bytes() and the strips).   */ \
+  std::size_t census_match_scratch_bytes(int width, int max_range, int shd_window, int census_words); \
   /* k x k median; invalid pixels enter as the smallest value (see median_filter.cpp). */         \
   void median_filter(const Plane<std::int16_t>& src, int k, Plane<std::int16_t>& dst);            \
   /* dst = src, invalid where the other view disagrees by more than threshold_q4 / 16 px. */      \

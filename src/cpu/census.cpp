@@ -10,7 +10,9 @@
 #include <algorithm>
 #include <bit>
 #include <cstring>
+#include <type_traits>
 
+#include "cpu/match_tiles.hpp"
 #include "cpu/parallel.hpp"
 #include "stages.hpp"
 
@@ -224,89 +226,136 @@ HWY_INLINE void EdgeTileRow(const std::uint8_t* src, int w, int bx, int block, s
   }
 }
 
+// The block layout of a row of width w, the same in every row. The blocks whose window lies
+// inside the row start at the first block x >= kRadius and end before x_end. The blocks at either
+// end (whose window leaves the row) read their window from a tile with the edge pixels repeated,
+// column kRadius of the tile being the block's first pixel; the last block overlaps the one
+// before rather than running past the row (the overlapped pixels get the same codes again).
+struct RowLayout {
+  int first, x_end, edges;
+  int edge_x[kMaxEdges];
+  bool fixed_copy;  // EdgeTileRow's condition
+};
+
+template <int kRadius>
+RowLayout MakeRowLayout(int w) {
+  const int block = static_cast<int>(hn::Lanes(D8()));
+  RowLayout l;
+  l.first = (kRadius + block - 1) / block * block;
+  l.x_end = l.first;
+  while (l.x_end + block + kRadius <= w) l.x_end += block;
+  l.edges = 0;
+  for (int e = 0; e < std::min(l.first, w); e += block) l.edge_x[l.edges++] = e;
+  for (int e = l.x_end; e < w; e += block) l.edge_x[l.edges++] = w >= block ? std::min(e, w - block) : 0;
+  l.fixed_copy = w >= block + kRadius && block >= 2 * kMaxRadius;
+  return l;
+}
+
+// The codes of image row y into out[k] (column 0 of word k's row), and `pad` replicated columns
+// on both sides.
 template <int kRadius, bool kMct>
-void CensusImpl(const Plane<std::uint8_t>& image, bool gaussian, CensusCodes& codes) {
+void CensusRow(const Plane<std::uint8_t>& image, int y, const RowLayout& layout, bool gaussian, int words,
+               std::uint32_t* const* out, int pad) {
   constexpr int kWindow = 2 * kRadius + 1;
   const D8 d8;
   const int block = static_cast<int>(hn::Lanes(d8));
   const int w = image.width(), h = image.height();
-  const int words = codes.words;
+  const std::uint8_t* rows[kWindow];
+  for (int j = 0; j < kWindow; ++j) rows[j] = image.row(clamp_index(y - kRadius + j, h));
+  // The edge tiles are filled before the interior blocks run: a block's loads straddle the
+  // copies' stores, cannot be forwarded from them, and would wait for them to reach the cache
+  // if they came right after.
+  HWY_ALIGN std::uint8_t tiles[kMaxEdges][kWindow * kTileStride];
+  for (int i = 0; i < layout.edges; ++i) {
+    std::uint8_t* tile = tiles[i];
+    if (layout.fixed_copy) {
+      for (int j = 0; j < kWindow; ++j) EdgeTileRow<kRadius>(rows[j], w, layout.edge_x[i], block, tile + j * kTileStride);
+    } else {
+      for (int j = 0; j < kWindow; ++j)
+        ClampedCopy(rows[j], w, layout.edge_x[i] - kRadius, block + 2 * kRadius, tile + j * kTileStride);
+    }
+  }
+  // The interior blocks, in a loop without calls: the bit weights and the row pointers stay
+  // in registers (with the copies in the same loop, GCC broadcast the seven weights again in
+  // every block).
+  for (int x = layout.first; x < layout.x_end; x += block) CensusBlock<kRadius, kMct>(d8, rows, x, gaussian, out);
+  // A row narrower than a block is written through a stack buffer: a whole block would run
+  // past the row's slack.
+  HWY_ALIGN std::uint32_t narrow[3][kMaxBlock];
+  for (int i = 0; i < layout.edges; ++i) {
+    const std::uint8_t* tile_rows[kWindow];
+    for (int j = 0; j < kWindow; ++j) tile_rows[j] = tiles[i] + j * kTileStride + kRadius;
+    std::uint32_t* dst[3];
+    for (int k = 0; k < words; ++k) dst[k] = w >= block ? out[k] + layout.edge_x[i] : narrow[k];
+    CensusBlock<kRadius, kMct>(d8, tile_rows, 0, gaussian, dst);
+    if (w < block)
+      for (int k = 0; k < words; ++k) std::memcpy(out[k], narrow[k], sizeof(std::uint32_t) * w);
+  }
+  // Replicated columns for the matching stage's window.
+  for (int k = 0; k < words; ++k) {
+    std::uint32_t* r = out[k];
+    std::fill(r - pad, r, r[0]);
+    std::fill(r + w, r + w + pad, r[w - 1]);
+  }
+}
 
-  // The block layout is the same in every row. The blocks whose window lies inside the row start
-  // at the first block x >= kRadius and end before x_end. The blocks at either end (whose window
-  // leaves the row) read their window from a tile with the edge pixels repeated, column kRadius
-  // of the tile being the block's first pixel; the last block overlaps the one before rather
-  // than running past the row (the overlapped pixels get the same codes again).
-  const int first = (kRadius + block - 1) / block * block;
-  int x_end = first;
-  while (x_end + block + kRadius <= w) x_end += block;
-  int edge_x[kMaxEdges];
-  int edges = 0;
-  for (int e = 0; e < std::min(first, w); e += block) edge_x[edges++] = e;
-  for (int e = x_end; e < w; e += block) edge_x[edges++] = w >= block ? std::min(e, w - block) : 0;
-  const bool fixed_copy = w >= block + kRadius && block >= 2 * kMaxRadius;  // EdgeTileRow's condition
-
-  parallel_lines(h, [&](int y0, int y1) {
+template <int kRadius, bool kMct>
+void CensusImpl(const Plane<std::uint8_t>& image, bool gaussian, CensusCodes& codes) {
+  const RowLayout layout = MakeRowLayout<kRadius>(image.width());
+  parallel_lines(image.height(), [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
-      const std::uint8_t* rows[kWindow];
-      for (int j = 0; j < kWindow; ++j) rows[j] = image.row(clamp_index(y - kRadius + j, h));
       std::uint32_t* out[3];
-      for (int k = 0; k < words; ++k) out[k] = codes.plane[k].row(y);
-      // The edge tiles are filled before the interior blocks run: a block's loads straddle the
-      // copies' stores, cannot be forwarded from them, and would wait for them to reach the cache
-      // if they came right after.
-      HWY_ALIGN std::uint8_t tiles[kMaxEdges][kWindow * kTileStride];
-      for (int i = 0; i < edges; ++i) {
-        std::uint8_t* tile = tiles[i];
-        if (fixed_copy) {
-          for (int j = 0; j < kWindow; ++j) EdgeTileRow<kRadius>(rows[j], w, edge_x[i], block, tile + j * kTileStride);
-        } else {
-          for (int j = 0; j < kWindow; ++j)
-            ClampedCopy(rows[j], w, edge_x[i] - kRadius, block + 2 * kRadius, tile + j * kTileStride);
-        }
-      }
-      // The interior blocks, in a loop without calls: the bit weights and the row pointers stay
-      // in registers (with the copies in the same loop, GCC broadcast the seven weights again in
-      // every block).
-      for (int x = first; x < x_end; x += block) CensusBlock<kRadius, kMct>(d8, rows, x, gaussian, out);
-      // A row narrower than a block is written through a stack buffer: a whole block would run
-      // past the row's slack.
-      HWY_ALIGN std::uint32_t narrow[3][kMaxBlock];
-      for (int i = 0; i < edges; ++i) {
-        const std::uint8_t* tile_rows[kWindow];
-        for (int j = 0; j < kWindow; ++j) tile_rows[j] = tiles[i] + j * kTileStride + kRadius;
-        std::uint32_t* dst[3];
-        for (int k = 0; k < words; ++k) dst[k] = w >= block ? out[k] + edge_x[i] : narrow[k];
-        CensusBlock<kRadius, kMct>(d8, tile_rows, 0, gaussian, dst);
-        if (w < block)
-          for (int k = 0; k < words; ++k) std::memcpy(out[k], narrow[k], sizeof(std::uint32_t) * w);
-      }
-      // Replicated columns for the matching stage's window.
-      for (int k = 0; k < words; ++k) {
-        std::uint32_t* r = out[k];
-        const int pad = codes.plane[k].pad();
-        std::fill(r - pad, r, r[0]);
-        std::fill(r + w, r + w + pad, r[w - 1]);
-      }
+      for (int k = 0; k < codes.words; ++k) out[k] = codes.plane[k].row(y);
+      CensusRow<kRadius, kMct>(image, y, layout, gaussian, codes.words, out, codes.plane[0].pad());
     }
   });
 }
 
-void CensusTransform(const Plane<std::uint8_t>& image, const CensusConfig& config, CensusCodes& codes) {
-  if (image.width() == 0 || image.height() == 0) return;
+// Rows [y_begin, y_end) on the calling thread, into the slots of dst (census_match's strips).
+template <int kRadius, bool kMct>
+void CensusRowsImpl(const Plane<std::uint8_t>& image, bool gaussian, int y_begin, int y_end, const CodeRows& dst) {
+  const RowLayout layout = MakeRowLayout<kRadius>(image.width());
+  for (int y = y_begin; y < y_end; ++y) {
+    std::uint32_t* out[3];
+    for (int k = 0; k < dst.words; ++k) out[k] = dst.row(k, y);
+    CensusRow<kRadius, kMct>(image, y, layout, gaussian, dst.words, out, kCodePad);
+  }
+}
+
+// Calls fn(radius, mct) with both as compile-time constants (std::integral_constant) for the
+// census variant of config.
+template <class Fn>
+void WithCensusVariant(const CensusConfig& config, const Fn& fn) {
+  using std::integral_constant;
   const bool mct = config.kind != CensusKind::Census;
-  const bool gaussian = config.kernel == MeanKernel::Gaussian;
   switch (config.window * 2 + (mct ? 1 : 0)) {
-    case 3 * 2: return CensusImpl<1, false>(image, gaussian, codes);
-    case 3 * 2 + 1: return CensusImpl<1, true>(image, gaussian, codes);
-    case 5 * 2: return CensusImpl<2, false>(image, gaussian, codes);
-    case 5 * 2 + 1: return CensusImpl<2, true>(image, gaussian, codes);
-    case 7 * 2: return CensusImpl<3, false>(image, gaussian, codes);
-    case 7 * 2 + 1: return CensusImpl<3, true>(image, gaussian, codes);
-    case 9 * 2: return CensusImpl<4, false>(image, gaussian, codes);
-    case 9 * 2 + 1: return CensusImpl<4, true>(image, gaussian, codes);
+    case 3 * 2: return fn(integral_constant<int, 1>(), std::false_type());
+    case 3 * 2 + 1: return fn(integral_constant<int, 1>(), std::true_type());
+    case 5 * 2: return fn(integral_constant<int, 2>(), std::false_type());
+    case 5 * 2 + 1: return fn(integral_constant<int, 2>(), std::true_type());
+    case 7 * 2: return fn(integral_constant<int, 3>(), std::false_type());
+    case 7 * 2 + 1: return fn(integral_constant<int, 3>(), std::true_type());
+    case 9 * 2: return fn(integral_constant<int, 4>(), std::false_type());
+    case 9 * 2 + 1: return fn(integral_constant<int, 4>(), std::true_type());
     default: return;  // validate() admits only windows 3, 5, 7, 9
   }
+}
+
+void CensusTransform(const Plane<std::uint8_t>& image, const CensusConfig& config, CensusCodes& codes) {
+  if (image.width() == 0 || image.height() == 0) return;
+  const bool gaussian = config.kernel == MeanKernel::Gaussian;
+  WithCensusVariant(config, [&](auto radius, auto mct) {
+    CensusImpl<decltype(radius)::value, decltype(mct)::value>(image, gaussian, codes);
+  });
+}
+
+void CensusRows(const Plane<std::uint8_t>& image, const CensusConfig& config, int y_begin, int y_end,
+                const CodeRows& dst) {
+  if (image.width() == 0 || y_begin >= y_end) return;
+  const bool gaussian = config.kernel == MeanKernel::Gaussian;
+  WithCensusVariant(config, [&](auto radius, auto mct) {
+    CensusRowsImpl<decltype(radius)::value, decltype(mct)::value>(image, gaussian, y_begin, y_end, dst);
+  });
 }
 
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE
@@ -315,6 +364,11 @@ HWY_AFTER_NAMESPACE();
 #if HWY_ONCE
 namespace mctstereo::detail::cpu {
 HWY_EXPORT(CensusTransform);
+HWY_EXPORT(CensusRows);
+void census_rows(const Plane<std::uint8_t>& image, const CensusConfig& config, int y_begin, int y_end,
+                 const CodeRows& dst) {
+  HWY_DYNAMIC_DISPATCH(CensusRows)(image, config, y_begin, y_end, dst);
+}
 void census_transform(const Plane<std::uint8_t>& image, const CensusConfig& config, CensusCodes& codes) {
   HWY_DYNAMIC_DISPATCH(CensusTransform)(image, config, codes);
 }

@@ -44,9 +44,6 @@
 #include "cpu/search_range-inl.h"
 #include "cpu/vec_slot-inl.h"
 
-#ifndef MCTSTEREO_CPU_MATCH_LAYOUT
-#define MCTSTEREO_CPU_MATCH_LAYOUT
-
 #include <omp.h>
 
 #include <algorithm>
@@ -55,53 +52,9 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "cpu/match_tiles.hpp"
 #include "cpu/parallel.hpp"
 #include "stages.hpp"
-
-namespace mctstereo::detail::cpu::match_layout {
-
-// Band row length: a multiple of every lane count (int16 vectors are capped at 32 lanes below).
-// 16 rows keep the vertical overhead of the running sums ((a - 1) extra Hamming rows per tile and
-// candidate) at 25 % for a = 5. Measured on Middlebury cones and a synthetic slanted scene,
-// 64 x 32 and 128 x 16 tiles ran as fast, 32 x 16, 32 x 32 and 128 x 8 up to 15 % slower.
-constexpr int kTile = 64;
-constexpr int kRows = 16;
-// Candidates the band holds at once: 256 x 16 rows x 64 columns x 2 bytes = 512 KiB, which stays
-// in the L2 cache between the cost pass that writes it and the WTA pass that reads it. Wider
-// unions (more than 256 disparities at one level) go through the band in chunks.
-constexpr int kMaxChunk = 256;
-constexpr int kMaxLanes16 = 32;
-// One row of the vertical sum V (int16): a front margin of a vector (the horizontal sums start at
-// a vector boundary left of the first needed column), the tile with its window margins, and the
-// overrun of the last vector.
-constexpr int kVFront = 32;
-constexpr int kVLen = kVFront + kTile + 64 + 32;
-constexpr std::size_t kVBytes = kVLen * sizeof(std::int16_t);
-constexpr std::size_t kVRowsBytes = kRows * kVBytes;  // one V row per output row
-constexpr std::size_t kStateWords = 8;  // WTA state vectors per pixel vector (see WtaTile)
-constexpr std::size_t kStateBytes = kStateWords * kRows * kTile * sizeof(std::int16_t);
-constexpr std::size_t kBandBytesPerCandidate = kRows * kTile * sizeof(std::int16_t);
-constexpr std::size_t kFixedBytes = kVRowsBytes + kStateBytes;
-
-}  // namespace mctstereo::detail::cpu::match_layout
-
-namespace mctstereo::detail::cpu {
-
-/// Everything one tile needs, shared by all tiles of a call.
-struct MatchJob {
-  const CensusCodes* ref;
-  const CensusCodes* other;
-  const SearchRanges* ranges;
-  const MatchConfig* config;
-  Plane<std::int16_t>* disparity;
-  Plane<std::uint8_t>* margin;  // null: not wanted
-  int tile_w;   // pixels per tile row (<= kTile, see match())
-  int tiles_x;
-};
-
-}  // namespace mctstereo::detail::cpu
-
-#endif  // MCTSTEREO_CPU_MATCH_LAYOUT
 
 HWY_BEFORE_NAMESPACE();
 namespace mctstereo::detail::cpu::HWY_NAMESPACE {
@@ -585,7 +538,7 @@ void WtaTile(const MatchJob& job, const TileBounds& tb, int x0, int y0, int tw, 
 void MatchTile(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t bytes) {
   const D16 d16;
   const int N16 = static_cast<int>(hn::Lanes(d16));
-  const int w = job.ref->plane[0].width(), h = job.ref->plane[0].height();
+  const int w = job.ref.width, h = job.ref.height;
   const int dir = job.config->dir;
   const int x0 = (tile % job.tiles_x) * job.tile_w, y0 = (tile / job.tiles_x) * kRows;
   const int tw = std::min(job.tile_w, w - x0), th = std::min(kRows, h - y0);
@@ -667,16 +620,18 @@ void MatchTile(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t byt
   std::int16_t* band = reinterpret_cast<std::int16_t*>(mem + kFixedBytes);
   const int cap = static_cast<int>((bytes - kFixedBytes) / (kRows * kTile * sizeof(std::int16_t)));
   const int kc = std::min(umax - umin + 1, cap);
-  const int words = job.ref->words;
+  const int words = job.ref.words;
   const int a = job.config->shd_window;
   const CostFn cost = words == 1 ? CostFor<1>(a) : words == 2 ? CostFor<2>(a) : CostFor<3>(a);
   TileRows tr;
   tr.x0 = x0;
   for (int t = 0; t < th + 8; ++t) {
-    const int y = clamp_index(y0 + t - 4, h);
+    // Rows outside the ones the codes hold now are never read (the window reaches a rows at
+    // most): their pointers only need to be valid.
+    const int y = std::clamp(clamp_index(y0 + t - 4, h), job.ref.row_lo, job.ref.row_hi);
     for (int k = 0; k < words; ++k) {
-      tr.ref[k][t] = job.ref->plane[k].row(y);
-      tr.other[k][t] = job.other->plane[k].row(y);
+      tr.ref[k][t] = job.ref.row(k, y);
+      tr.other[k][t] = job.other.row(k, y);
     }
   }
   // The second best serves the uniqueness test and the margin.
@@ -714,6 +669,10 @@ void MatchTile(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t byt
   }
 }
 
+void MatchTileRow(const MatchJob& job, int tile_row, std::uint8_t* mem, std::size_t bytes) {
+  for (int t = tile_row * job.tiles_x; t < (tile_row + 1) * job.tiles_x; ++t) MatchTile(job, t, mem, bytes);
+}
+
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE
 HWY_AFTER_NAMESPACE();
 
@@ -721,6 +680,11 @@ HWY_AFTER_NAMESPACE();
 namespace mctstereo::detail::cpu {
 
 HWY_EXPORT(MatchTile);
+HWY_EXPORT(MatchTileRow);
+
+void match_tile_row(const MatchJob& job, int tile_row, std::uint8_t* mem, std::size_t bytes) {
+  HWY_DYNAMIC_DISPATCH(MatchTileRow)(job, tile_row, mem, bytes);
+}
 
 // Per thread: the V rows and the WTA state of one tile, and a band of up to kMaxChunk
 // candidates for the tile. Independent of the image size.
@@ -737,11 +701,7 @@ void match(const CensusCodes& ref, const CensusCodes& other, const SearchRanges&
   using namespace match_layout;
   const int w = ref.plane[0].width(), h = ref.plane[0].height();
   if (w <= 0 || h <= 0) return;
-  // Tiles kTile - (a - 1) pixels wide: with the window margins a full-width row of Hamming costs
-  // is then exactly kTile columns, a whole number of vectors. The width is even, as
-  // PriorRangeSegment needs of a tile's first column.
-  const int tile_w = kTile - 2 * (config.shd_window / 2);
-  const MatchJob job{&ref, &other, &ranges, &config, &disparity, margin, tile_w, (w + tile_w - 1) / tile_w};
+  const MatchJob job = make_match_job(CodeRows::of(ref), CodeRows::of(other), ranges, config, disparity, margin);
   const int tiles = job.tiles_x * ((h + kRows - 1) / kRows);
   // Each thread's slice starts at the next 64-byte boundary (the aligned loads need it) and must
   // still hold the fixed buffers and one candidate's band: less is a driver bug, not an input.
