@@ -55,8 +55,11 @@ long expect_same(const Case& c) {
   CensusMatchJob job;
   job.image = {&pair.left, &pair.right};
   job.census = c.census;
+  // The views' loops run over a constant 0..1 (GCC cannot see that c.views <= 2 and warns of an
+  // overflow of the two-entry arrays otherwise).
+  const auto matched = [&](int v) { return v < c.views; };
   job.views = c.views;
-  for (int v = 0; v < c.views; ++v) {
+  for (int v = 0; v < 2 && matched(v); ++v) {
     const Plane<std::int16_t>* p = nullptr;
     if (c.radius >= 0) {
       prior[v] = random_disparity((c.w + 1) / 2, (c.h + 1) / 2, c.seed + 10 + v, 16 * (c.dmin / 2),
@@ -72,7 +75,7 @@ long expect_same(const Case& c) {
   Plane<std::uint8_t> expected_margin(c.w, c.h);
   std::array<detail::CensusCodes, 2> codes = {code_planes(c.w, c.h, c.census.window),
                                               code_planes(c.w, c.h, c.census.window)};
-  for (int v = 0; v < c.views; ++v) {
+  for (int v = 0; v < 2 && matched(v); ++v) {
     expected[v].reset(c.w, c.h);
     job.disparity[v] = &expected[v];
   }
@@ -92,7 +95,7 @@ long expect_same(const Case& c) {
     for (int threads : {1, 2}) {
       omp_set_num_threads(threads);
       std::array<Plane<std::int16_t>, 2> got;
-      for (int v = 0; v < c.views; ++v) {
+      for (int v = 0; v < 2 && matched(v); ++v) {
         got[v].reset(c.w, c.h);
         for (int y = 0; y < c.h; ++y) std::fill_n(got[v].row(y), c.w, std::int16_t{12345});
         job.disparity[v] = &got[v];
@@ -103,7 +106,7 @@ long expect_same(const Case& c) {
       const std::string what = target + ", " + std::to_string(threads) + " threads, " + std::to_string(c.w) + "x" +
                                std::to_string(c.h) + ", " + census_config_name(c.census) + ", a " +
                                std::to_string(c.shd) + ", radius " + std::to_string(c.radius);
-      for (int v = 0; v < c.views; ++v) EXPECT_EQ(first_difference(expected[v], got[v]), "") << what << ", view " << v;
+      for (int v = 0; v < 2 && matched(v); ++v) EXPECT_EQ(first_difference(expected[v], got[v]), "") << what << ", view " << v;
       if (threads == 2) EXPECT_EQ(first_difference(expected_margin, margin), "") << what << ", margins";
     }
   });
