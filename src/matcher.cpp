@@ -60,7 +60,7 @@ struct StageTable {
 #define MCTSTEREO_STAGE_TABLE(ns)                                                                \
   StageTable {                                                                                   \
     &ns::to_gray, &ns::pyramid_down, &ns::census_transform, &ns::census_match,                   \
-        &ns::census_match_scratch_bytes, &ns::median_filter, &ns::lr_check, &ns::remove_speckles,       \
+        &ns::census_match_scratch_bytes, &ns::median_filter, &ns::lr_check, &ns::remove_speckles, \
         &ns::fill_invalid, &ns::upscale, &ns::sgm_costs, &ns::sgm_aggregate, &ns::sgm_scratch_bytes, \
         &ns::sgm_select, &ns::confidence, &ns::split_channels, &ns::weighted_median              \
   }

@@ -276,6 +276,31 @@ inline void for_each_simd_target(const std::function<void(const std::string&)>& 
   hwy::SetSupportedTargetsForTest(0);
 }
 
+/// Runs fn on every SIMD target the tests compile, plus AVX3_DL (which the library compiles on its
+/// own for the matching stages) where this CPU has it.
+inline void for_each_library_target(const std::function<void(const std::string&)>& fn) {
+  for_each_simd_target(fn);
+  if (hwy::SupportedTargets() & HWY_AVX3_DL) {
+    hwy::SetSupportedTargetsForTest(HWY_AVX3_DL);
+    fn(hwy::TargetName(HWY_AVX3_DL));
+    hwy::SetSupportedTargetsForTest(0);
+  }
+}
+
+/// A stage's per-thread scratch (MatchScratch, SgmScratch): `threads` slices of bytes_per_thread
+/// bytes each, taken as given (the driver rounds them to 64 bytes; a test may leave them odd).
+template <class Scratch>
+Scratch thread_scratch(std::size_t bytes_per_thread, int threads) {
+  Scratch s;
+  s.threads = threads;
+  s.bytes_per_thread = bytes_per_thread;
+  s.data = detail::allocate_aligned<std::uint8_t>(s.bytes_per_thread * threads);
+  return s;
+}
+
+/// n rounded up to whole 64-byte lines, as the driver sizes scratch slices.
+inline std::size_t whole_lines(std::size_t n) { return (n + 63) / 64 * 64; }
+
 /// Runs fn on every SIMD target (as for_each_simd_target) with 1 and then 2 OpenMP threads;
 /// fn receives "TARGET, N thread(s)" for its messages.
 inline void for_each_target_and_threads(const std::function<void(const std::string&)>& fn) {

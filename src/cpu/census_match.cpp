@@ -62,7 +62,7 @@ void census_match(const CensusMatchJob& job, MatchScratch& scratch) {
   // Each thread's slice starts at the next 64-byte boundary; after the rings it must hold the
   // tile's fixed buffers and one candidate's band: less is a driver bug, not an input.
   const std::size_t need = ring + match_layout::kFixedBytes + match_layout::kBandBytesPerCandidate;
-  if (scratch.bytes_per_thread < need + kAlignment - 1) std::abort();
+  if (aligned_slice_bytes(scratch) < need) std::abort();
   if (t_pool && t_pool->size() > scratch.threads) std::abort();  // a scratch slice per thread
   // Strips of several tile rows, about four per thread (so that the others take over the share
   // of a thread the OS deschedules), at most 8: the rows made twice are 2 a per strip.
@@ -72,11 +72,9 @@ void census_match(const CensusMatchJob& job, MatchScratch& scratch) {
   parallel_for(
       strips, 1,
       [&](int s0, int s1) {
-        std::uint8_t* slice = scratch.data.get() + thread_slot() * scratch.bytes_per_thread;
-        const auto start = reinterpret_cast<std::uintptr_t>(slice);
-        auto* base = reinterpret_cast<std::uint8_t*>((start + kAlignment - 1) / kAlignment * kAlignment);
+        std::uint8_t* base = aligned_slice(scratch, thread_slot());
         std::uint8_t* tile_mem = base + ring;
-        const std::size_t tile_bytes = scratch.bytes_per_thread - (base - slice) - ring;
+        const std::size_t tile_bytes = aligned_slice_bytes(scratch) - ring;
         CodeRows codes[2] = {ring_of(base, 0, words, w, h), ring_of(base, 1, words, w, h)};
         for (int s = s0; s < s1; ++s) {
           const int first = s * per_strip, last = std::min(tile_rows, first + per_strip);

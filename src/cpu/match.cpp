@@ -705,7 +705,7 @@ void match(const CensusCodes& ref, const CensusCodes& other, const SearchRanges&
   const int tiles = job.tiles_x * ((h + kRows - 1) / kRows);
   // Each thread's slice starts at the next 64-byte boundary (the aligned loads need it) and must
   // still hold the fixed buffers and one candidate's band: less is a driver bug, not an input.
-  const std::size_t usable = scratch.bytes_per_thread < kAlignment ? 0 : scratch.bytes_per_thread - (kAlignment - 1);
+  const std::size_t usable = aligned_slice_bytes(scratch);
   if (usable < kFixedBytes + kBandBytesPerCandidate) std::abort();
   if (t_pool && t_pool->size() > scratch.threads) std::abort();  // a scratch slice per thread
   // Tiles differ in cost (range widths vary with the prior), hence one tile per chunk, taken as
@@ -714,10 +714,8 @@ void match(const CensusCodes& ref, const CensusCodes& other, const SearchRanges&
   parallel_for(
       tiles, 1,
       [&](int t0, int t1) {
-        std::uint8_t* base = scratch.data.get() + thread_slot() * scratch.bytes_per_thread;
-        const auto aligned = (reinterpret_cast<std::uintptr_t>(base) + kAlignment - 1) / kAlignment * kAlignment;
-        for (int t = t0; t < t1; ++t)
-          HWY_DYNAMIC_DISPATCH(MatchTile)(job, t, reinterpret_cast<std::uint8_t*>(aligned), usable);
+        std::uint8_t* mem = aligned_slice(scratch, thread_slot());
+        for (int t = t0; t < t1; ++t) HWY_DYNAMIC_DISPATCH(MatchTile)(job, t, mem, usable);
       },
       scratch.threads);
 }

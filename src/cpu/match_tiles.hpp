@@ -83,6 +83,18 @@ inline MatchJob make_match_job(const CodeRows& ref, const CodeRows& other, const
   return MatchJob{ref, other, &ranges, &config, &disparity, margin, tile_w, (ref.width + tile_w - 1) / tile_w};
 }
 
+/// Bytes every thread's slice of `scratch` holds from its first 64-byte boundary, whatever the
+/// slice's start (the driver rounds slices to 64 bytes; tests may not).
+inline std::size_t aligned_slice_bytes(const MatchScratch& scratch) {
+  return scratch.bytes_per_thread < kAlignment ? 0 : scratch.bytes_per_thread - (kAlignment - 1);
+}
+
+/// The first 64-byte boundary of thread `slot`'s slice of `scratch` (the tiles' aligned loads need it).
+inline std::uint8_t* aligned_slice(const MatchScratch& scratch, int slot) {
+  const auto start = reinterpret_cast<std::uintptr_t>(scratch.data.get() + slot * scratch.bytes_per_thread);
+  return reinterpret_cast<std::uint8_t*>((start + kAlignment - 1) / kAlignment * kAlignment);
+}
+
 /// Matches the tiles of tile row `tile_row` (image rows 16 tile_row ..), left to right, in one
 /// thread's scratch `mem` (64-byte aligned, `bytes` long: at least kFixedBytes and one candidate's
 /// band). The codes of the rows the tiles' windows read must be in job.ref and job.other.

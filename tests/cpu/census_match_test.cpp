@@ -17,25 +17,6 @@ using detail::CensusMatchJob;
 using detail::kInvalid;
 using detail::MatchScratch;
 
-MatchScratch make_scratch(std::size_t bytes_per_thread, int threads) {
-  MatchScratch s;
-  s.threads = threads;
-  s.bytes_per_thread = (bytes_per_thread + 63) / 64 * 64;
-  s.data = detail::allocate_aligned<std::uint8_t>(s.bytes_per_thread * threads);
-  return s;
-}
-
-/// Runs fn on every SIMD target the tests compile, plus AVX3_DL (which the library compiles on
-/// its own) where this CPU has it.
-void for_each_library_target(const std::function<void(const std::string&)>& fn) {
-  for_each_simd_target(fn);
-  if (hwy::SupportedTargets() & HWY_AVX3_DL) {
-    hwy::SetSupportedTargetsForTest(HWY_AVX3_DL);
-    fn(hwy::TargetName(HWY_AVX3_DL));
-    hwy::SetSupportedTargetsForTest(0);
-  }
-}
-
 struct Case {
   int w, h;
   detail::CensusConfig census{CensusKind::Census, 5, MeanKernel::Gaussian};
@@ -81,7 +62,8 @@ long expect_same(const Case& c) {
   }
   job.margin = &expected_margin;
   job.codes = codes.data();
-  MatchScratch ref_scratch = make_scratch(detail::reference::census_match_scratch_bytes(c.w, range, c.shd, 0), 1);
+  MatchScratch ref_scratch =
+      thread_scratch<MatchScratch>(whole_lines(detail::reference::census_match_scratch_bytes(c.w, range, c.shd, 0)), 1);
   detail::reference::census_match(job, ref_scratch);
   long valid = 0;
   for (int y = 0; y < c.h; ++y)
@@ -89,7 +71,8 @@ long expect_same(const Case& c) {
 
   job.codes = nullptr;  // the cpu backend needs no code planes
   const int words = detail::census_words(c.census.window);
-  MatchScratch scratch = make_scratch(detail::cpu::census_match_scratch_bytes(c.w, range, c.shd, words), 2);
+  MatchScratch scratch =
+      thread_scratch<MatchScratch>(whole_lines(detail::cpu::census_match_scratch_bytes(c.w, range, c.shd, words)), 2);
   const int saved_threads = omp_get_max_threads();
   for_each_library_target([&](const std::string& target) {
     for (int threads : {1, 2}) {

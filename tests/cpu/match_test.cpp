@@ -34,25 +34,6 @@ Ranges ranges(int w, int h, const Plane<std::int16_t>* prior, int dmin, int dmax
   return r;
 }
 
-MatchScratch make_scratch(std::size_t bytes_per_thread, int threads) {
-  MatchScratch s;
-  s.threads = threads;
-  s.bytes_per_thread = bytes_per_thread;
-  s.data = detail::allocate_aligned<std::uint8_t>(s.bytes_per_thread * threads);
-  return s;
-}
-
-/// Runs fn on every SIMD target the tests compile, plus AVX3_DL (which the matching stage compiles
-/// on its own) where this CPU has it.
-void for_each_match_target(const std::function<void(const std::string&)>& fn) {
-  for_each_simd_target(fn);
-  if (hwy::SupportedTargets() & HWY_AVX3_DL) {
-    hwy::SetSupportedTargetsForTest(HWY_AVX3_DL);
-    fn(hwy::TargetName(HWY_AVX3_DL));
-    hwy::SetSupportedTargetsForTest(0);
-  }
-}
-
 struct Stats {
   long valid = 0, fractional = 0;
   long partial_margin = 0;  // pixels whose margin is strictly between 0 and 255
@@ -67,7 +48,8 @@ Stats expect_same(const CensusCodes& ref, const CensusCodes& other, const Ranges
   int max_range = 1;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) max_range = std::max(max_range, r.hi.at(x, y) - r.lo.at(x, y) + 1);
-  MatchScratch ref_scratch = make_scratch(detail::reference::match_scratch_bytes(w, max_range, config.shd_window), 1);
+  MatchScratch ref_scratch =
+      thread_scratch<MatchScratch>(detail::reference::match_scratch_bytes(w, max_range, config.shd_window), 1);
   Plane<std::int16_t> expected(w, h);
   Plane<std::uint8_t> expected_margin(w, h);
   const auto planes = detail::SearchRanges::planes(r.lo, r.hi);
@@ -95,10 +77,10 @@ Stats expect_same(const CensusCodes& ref, const CensusCodes& other, const Ranges
 
   // The driver rounds the slices to 64 bytes; tests that pass their own size may leave them odd.
   if (cpu_scratch_bytes == 0)
-    cpu_scratch_bytes = (detail::cpu::match_scratch_bytes(w, max_range, config.shd_window) + 63) / 64 * 64;
-  MatchScratch scratch = make_scratch(cpu_scratch_bytes, 2);
+    cpu_scratch_bytes = whole_lines(detail::cpu::match_scratch_bytes(w, max_range, config.shd_window));
+  MatchScratch scratch = thread_scratch<MatchScratch>(cpu_scratch_bytes, 2);
   const int saved_threads = omp_get_max_threads();
-  for_each_match_target([&](const std::string& target) {
+  for_each_library_target([&](const std::string& target) {
     for (int threads : {1, 2}) {
       omp_set_num_threads(threads);
       for (const detail::SearchRanges* form : {&planes, r.rule ? &*r.rule : nullptr}) {

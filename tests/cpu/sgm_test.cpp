@@ -33,13 +33,7 @@ struct OwnedVolume {
   }
 };
 
-SgmScratch make_scratch(std::size_t bytes, int threads) {
-  SgmScratch s;
-  s.threads = threads;
-  s.bytes_per_thread = (bytes + 63) / 64 * 64;
-  s.data = detail::allocate_aligned<std::uint8_t>(s.bytes_per_thread * threads);
-  return s;
-}
+SgmScratch make_scratch(std::size_t bytes, int threads) { return thread_scratch<SgmScratch>(whole_lines(bytes), threads); }
 
 TEST(SgmBand, RuleKnownAnswers) {
   // Coarse 3 x 3 map (Q4): priors 2, 3, 4 / 5, 6, 7 / invalid, 9, 10 px.
