@@ -357,7 +357,10 @@ struct Matcher::Impl {
     const detail::SgmPathConfig paths{params.sgm_paths(), params.sgm_p1, params.sgm_p2, params.sgm_p2_k};
     stages->sgm_aggregate(level_image(l, 0), paths, sgm_scratch, L.sgm);
     const detail::SgmSelectConfig select{params.subpixel && l == 0, params.uniqueness_ratio};
-    stages->sgm_select(L.sgm, select, sgm_scratch, L.disparity[0], need_right ? &L.disparity[1] : nullptr,
+    // The finer level's band comes from the left map alone: a coarser level's right map serves
+    // only its own LR check.
+    const bool right = need_right && (l == 0 || L.refine);
+    stages->sgm_select(L.sgm, select, sgm_scratch, L.disparity[0], right ? &L.disparity[1] : nullptr,
                        l == 0 ? &margin : nullptr);
   }
 

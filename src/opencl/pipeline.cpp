@@ -394,7 +394,9 @@ void Pipeline::match_sgm(int l, const DevicePlane<std::int16_t>* prior) {
   const SgmPathConfig paths{params_.sgm_paths(), params_.sgm_p1, params_.sgm_p2, params_.sgm_p2_k};
   stages_->sgm_aggregate->run(level_image(l, 0), paths, L.sgm);
   const SgmSelectConfig select{params_.subpixel && l == 0, params_.uniqueness_ratio};
-  stages_->sgm_select->run(L.sgm, select, L.dmin, L.dmax, L.disparity[0], need_right_ ? &L.disparity[1] : nullptr,
+  // A coarser level's right map serves only its own LR check (the band comes from the left map).
+  const bool right = need_right_ && (l == 0 || L.refine);
+  stages_->sgm_select->run(L.sgm, select, L.dmin, L.dmax, L.disparity[0], right ? &L.disparity[1] : nullptr,
                            l == 0 ? &margin_ : nullptr);
 }
 
