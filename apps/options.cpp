@@ -39,6 +39,7 @@ constexpr FieldFlag kFieldFlags[] = {
     {"sgm_p2", "--p2"},
     {"sgm_p2_k", "--p2-k"},
     {"prior_size", "--prior-size"},
+    {"box_levels", "--box-levels"},
     {"finest_search_radius", "--finest-radius"},
     {"sgm_max_band", "--max-band"},
     {"wm_radius", "--wm-radius"},
@@ -156,11 +157,14 @@ ParameterFlags::ParameterFlags(CLI::App& app) {
                  "the coarse-to-fine band, 4 or 8 paths)")
       ->check(CLI::IsMember({"box", "sgm4", "sgm8"}))
       ->group(kParameterGroup);
-  // Box aggregation searches around the 3x3 prior: switching an SGM preset to box takes that prior
-  // too (an explicit --prior-size, applied after this, still decides).
+  // Box aggregation searches around the 3x3 prior at every level: switching an SGM preset to box
+  // takes that prior and no SGM levels (an explicit --prior-size, applied after this, still decides).
   overrides_.push_back({"--aggregation", app.get_option("--aggregation"), [this](StereoParams& p) {
                           p.aggregation = parse_enum(aggregation_, {Aggregation::Box, Aggregation::Sgm4, Aggregation::Sgm8});
-                          if (p.aggregation == Aggregation::Box) p.prior_size = 3;
+                          if (p.aggregation == Aggregation::Box) {
+                            p.prior_size = 3;
+                            p.box_levels = 0;
+                          }
                         }});
   add(app, "--p1", v.sgm_p1, "SGM penalty of a one-disparity step along a path, cost units (Hamming bits); [0, 16383]",
       [&v](StereoParams& p) { p.sgm_p1 = v.sgm_p1; });
@@ -172,6 +176,10 @@ ParameterFlags::ParameterFlags(CLI::App& app) {
   add(app, "--prior-size", v.prior_size,
       "coarse neighbourhood whose priors span a pixel's search: 3 or 5 (5: SGM only)",
       [&v](StereoParams& p) { p.prior_size = v.prior_size; });
+  add(app, "--box-levels", v.box_levels,
+      "SGM: the finest this many levels match locally with box sums around the coarser SGM levels' maps "
+      "(the coarsest level is always SGM's); 0 = SGM at every level; [0, 4]",
+      [&v](StereoParams& p) { p.box_levels = v.box_levels; });
   add(app, "--finest-radius", v.finest_search_radius,
       "search radius at the finest level, pixels; -1 = --search-radius; [-1, 16]",
       [&v](StereoParams& p) { p.finest_search_radius = v.finest_search_radius; });
@@ -370,6 +378,7 @@ Json parameters_json(const StereoParams& p) {
   j.set("sgm_p2", p.sgm_p2);
   j.set("sgm_p2_k", p.sgm_p2_k);
   j.set("prior_size", p.prior_size);
+  j.set("box_levels", p.box_levels);
   j.set("finest_search_radius", p.finest_search_radius);
   j.set("sgm_max_band", p.sgm_max_band);
   j.set("weighted_median", p.weighted_median);

@@ -350,6 +350,7 @@ PYBIND11_MODULE(_mctstereo, m) {
   MCTSTEREO_FIELD(sgm_p2, "SGM penalty of a larger jump, [sgm_p1, 16383]");
   MCTSTEREO_FIELD(sgm_p2_k, "Adaptive P2: P2 k / (k + |I(p) - I(q)|), [0, 255], 0 = constant");
   MCTSTEREO_FIELD(prior_size, "Coarse neighbourhood spanning the search: 3 or 5");
+  MCTSTEREO_FIELD(box_levels, "SGM: finest levels matched locally with box sums around the SGM levels' maps");
   MCTSTEREO_FIELD(finest_search_radius, "Search radius at the finest level, [-1, 16], -1 = search_radius");
   MCTSTEREO_FIELD(sgm_max_band, "SGM candidates per pixel below the coarsest level, [1, 255]");
   MCTSTEREO_FIELD(weighted_median, "Colour-weighted median after the fill at the finest level, then a 3x3 median");

@@ -34,6 +34,8 @@ struct LevelSpec {
   bool refine = true;     ///< median, LR check, speckles, fill at this level
   bool coarsest = false;  ///< no prior: the whole range
   int speckle = 0;        ///< speckle removal's region size here; on only when > 1
+  bool is_sgm = false;    ///< band SGM here (else box sums: census_match)
+  bool right_map = false; ///< the right view's map is made here (both views are matched)
   int sgm_band = 0;       ///< band SGM: most candidates of a pixel (0 without SGM)
   int sgm_stride = 0;     ///< band SGM: entries per pixel slot
   int range() const { return dmax - dmin + 1; }
@@ -46,7 +48,14 @@ struct LevelPlan {
   int census_words = 1;
   std::size_t sgm_entries = 0;  ///< band SGM: cost (and sum) entries of the largest volume
   int sgm_max_stride = 16;      ///< band SGM: the widest slot
+  int sgm_levels = 0;           ///< levels that aggregate by SGM (the coarsest ones)
+  int box_range = 0;            ///< most disparities of a box level (0: none)
+  /// The level whose winners' margins the confidence takes: the finest, or under SGM with box
+  /// levels the finest SGM level (its margins replicated 2^margin_level times).
+  int margin_level = 0;
   const LevelSpec& finest() const { return levels.front(); }
+  /// The largest SGM level (its width sizes the SGM stages' scratch); only when sgm_levels > 0.
+  const LevelSpec& finest_sgm() const { return levels[levels.size() - static_cast<std::size_t>(sgm_levels)]; }
 };
 
 /// The band width of a level for SGM: its whole range at the coarsest level, else at most
@@ -56,8 +65,9 @@ inline int sgm_band_width(const StereoParams& p, int dmin, int dmax, int width, 
   return coarsest ? range : std::min(range, p.sgm_max_band);
 }
 
-/// The plan of a width x height frame with valid parameters p.
-inline LevelPlan plan_levels(const StereoParams& p, int width, int height) {
+/// The plan of a width x height frame with valid parameters p; need_right: the right view is
+/// matched at the finest level (LR check or the right map asked for).
+inline LevelPlan plan_levels(const StereoParams& p, int width, int height, bool need_right) {
   LevelPlan plan;
   plan.census_words = census_words(p.census_window);
   const int scale_steps = log2_exact(p.working_scale);
@@ -78,14 +88,24 @@ inline LevelPlan plan_levels(const StereoParams& p, int width, int height) {
     L.refine = l == 0 || p.refine_all_levels;
     L.coarsest = l + 1 == p.pyramid_levels;
     L.speckle = p.speckle_size >> (2 * L.scale_log2);
-    if (p.sgm()) {
+    L.is_sgm = p.sgm_at(l);
+    if (L.is_sgm) {
       L.sgm_band = sgm_band_width(p, L.dmin, L.dmax, lw, L.coarsest);
       L.sgm_stride = SgmVolume::stride_for(L.sgm_band);
       plan.sgm_entries = std::max(plan.sgm_entries, SgmVolume::entries_for(lw, lh, L.sgm_band));
       plan.sgm_max_stride = std::max(plan.sgm_max_stride, L.sgm_stride);
+      ++plan.sgm_levels;
+    } else {
+      plan.box_range = std::max(plan.box_range, L.range());
     }
+    // The right view's map: at the finest level for the LR check, at a level that refines (its
+    // own LR check), and wherever the finer level matches both views with box sums (the right
+    // view searches around it). SGM takes a finer level's band from the left map alone.
+    const bool finer_box = l > 0 && !plan.levels.back().is_sgm;
+    L.right_map = need_right && (l == 0 || L.refine || finer_box || !L.is_sgm);
     plan.max_range = std::max(plan.max_range, L.range());
     plan.levels.push_back(L);
+    if (L.is_sgm && plan.sgm_levels == 1) plan.margin_level = l;
     lw = (lw + 1) / 2;
     lh = (lh + 1) / 2;
   }

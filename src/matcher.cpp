@@ -68,10 +68,12 @@ const StageTable kReferenceStages = MCTSTEREO_STAGE_TABLE(detail::reference);
 const StageTable kCpuStages = MCTSTEREO_STAGE_TABLE(detail::cpu);
 #undef MCTSTEREO_STAGE_TABLE
 
-// Whole planes of census codes per level: band SGM's costs read them, and the reference backend's
-// census_match makes its codes in them. The cpu backend's census_match makes the codes of the
-// box presets strip by strip in its scratch and needs none.
-bool whole_code_planes(const StereoParams& p, Backend backend) { return p.sgm() || backend == Backend::Reference; }
+// Whole planes of census codes at a level: band SGM's costs read them, and the reference
+// backend's census_match makes its codes in them. The cpu backend's census_match makes the codes
+// of a box level strip by strip in its scratch and needs none.
+bool whole_code_planes(const detail::LevelSpec& level, Backend backend) {
+  return level.is_sgm || backend == Backend::Reference;
+}
 
 // Everything one pyramid level holds for both views; its plan (sizes, range, windows, band)
 // comes from plan_levels().
@@ -137,7 +139,10 @@ struct Matcher::Impl {
   // Band SGM: the cost and sum storage every level's volume uses and the scratch of its stages.
   std::unique_ptr<std::uint16_t[], detail::FreeDeleter> sgm_cost, sgm_sum;
   detail::SgmScratch sgm_scratch;
-  // The finest level's winner margins and confidence, and the confidence at the output size.
+  // The winner margins of the level the confidence takes them from (the plan's margin_level: the
+  // finest, or the finest SGM level under box levels), the finest level's confidence, and the
+  // confidence at the output size.
+  int margin_level = 0;
   Plane<std::uint8_t> margin, confidence_q8;
   Plane<float> out_confidence;
   bool confidence_current = false;
@@ -177,7 +182,7 @@ struct Matcher::Impl {
       return;
     }
 
-    const detail::LevelPlan plan = detail::plan_levels(p, w, h);
+    const detail::LevelPlan plan = detail::plan_levels(p, w, h, need_right);
     // Working-scale reductions of the input: full_gray[v][0] is the input size.
     for (int v = 0; v < 2; ++v)
       for (const detail::Size2& s : plan.working) full_gray[v].emplace_back(s.width, s.height);
@@ -198,17 +203,17 @@ struct Matcher::Impl {
         // Level 0 of the pyramid is the last working-scale reduction itself.
         if (levels.size() > 1) L.image[v].reset(lw, lh);
         L.codes[v].words = plan.census_words;
-        if (whole_code_planes(p, backend))
+        if (whole_code_planes(L, backend))
           for (int k = 0; k < L.codes[v].words; ++k) L.codes[v].plane[k].reset(lw, lh, detail::kCodePad);
       }
       for (int v = 0; v < views; ++v) {
         L.disparity[v].reset(lw, lh);
         L.scratch[v].reset(lw, lh);
       }
-      if (p.sgm()) L.sgm.reset(lw, lh, L.sgm_band, plan.census_words, nullptr, nullptr);
+      if (L.is_sgm) L.sgm.reset(lw, lh, L.sgm_band, plan.census_words, nullptr, nullptr);
     }
     const int scale_steps = static_cast<int>(plan.working.size()) - 1;
-    if (p.sgm()) {
+    if (plan.sgm_levels > 0) {
       sgm_cost = detail::allocate_aligned<std::uint16_t>(plan.sgm_entries);
       sgm_sum = detail::allocate_aligned<std::uint16_t>(plan.sgm_entries);
       for (Level& L : levels) {
@@ -217,19 +222,21 @@ struct Matcher::Impl {
       }
       sgm_scratch.threads = threads;
       sgm_scratch.bytes_per_thread =
-          (stages->sgm_scratch_bytes(levels[0].width, levels[0].height, plan.sgm_max_stride) + 63) / 64 * 64;
+          (stages->sgm_scratch_bytes(plan.finest_sgm().width, plan.finest_sgm().height, plan.sgm_max_stride) + 63) /
+          64 * 64;
       sgm_scratch.data = detail::allocate_aligned<std::uint8_t>(sgm_scratch.bytes_per_thread * threads);
     }
     if (want_confidence) {
-      margin.reset(levels[0].width, levels[0].height);
+      margin_level = plan.margin_level;
+      margin.reset(levels[margin_level].width, levels[margin_level].height);
       confidence_q8.reset(levels[0].width, levels[0].height);
       out_confidence.reset(w, h);
     }
-    if (!p.sgm()) {
+    if (plan.box_range > 0) {
       const int max_shd = std::max(p.shd_window, p.coarse_shd_window);
       match_scratch.threads = threads;
       match_scratch.bytes_per_thread =
-          (stages->census_match_scratch_bytes(levels[0].width, plan.max_range, max_shd, plan.census_words) + 63) /
+          (stages->census_match_scratch_bytes(levels[0].width, plan.box_range, max_shd, plan.census_words) + 63) /
           64 * 64;
       match_scratch.data = detail::allocate_aligned<std::uint8_t>(match_scratch.bytes_per_thread * threads);
     }
@@ -320,7 +327,7 @@ struct Matcher::Impl {
       for (int v = 0; v < kept; ++v) stages->remove_speckles(L.disparity[v], L.speckle, 16, speckle_scratch);
     // The confidence of the final map: what survived the checks, before the fill guesses.
     if (finest && want_confidence)
-      stages->confidence(margin, L.disparity[0], need_right ? &L.disparity[1] : nullptr, params.lr_threshold,
+      stages->confidence(margin, margin_level, L.disparity[0], need_right ? &L.disparity[1] : nullptr, params.lr_threshold,
                          confidence_q8);
     for (int v = 0; v < kept; ++v) stages->fill_invalid(L.disparity[v], params.fill);
     // The colour-weighted median and its 3x3 median take the place of the post-fill median in the
@@ -357,11 +364,8 @@ struct Matcher::Impl {
     const detail::SgmPathConfig paths{params.sgm_paths(), params.sgm_p1, params.sgm_p2, params.sgm_p2_k};
     stages->sgm_aggregate(level_image(l, 0), paths, sgm_scratch, L.sgm);
     const detail::SgmSelectConfig select{params.subpixel && l == 0, params.uniqueness_ratio};
-    // The finer level's band comes from the left map alone: a coarser level's right map serves
-    // only its own LR check.
-    const bool right = need_right && (l == 0 || L.refine);
-    stages->sgm_select(L.sgm, select, sgm_scratch, L.disparity[0], right ? &L.disparity[1] : nullptr,
-                       l == 0 ? &margin : nullptr);
+    stages->sgm_select(L.sgm, select, sgm_scratch, L.disparity[0], L.right_map ? &L.disparity[1] : nullptr,
+                       l == margin_level ? &margin : nullptr);
   }
 
   // The confidence at the output size (pixels of the working scale replicated s x s).
@@ -467,7 +471,7 @@ struct Matcher::Impl {
       job.config[v] = {v == 0 ? -1 : +1, L.shd_window, params.subpixel && l == 0, params.uniqueness_ratio};
       job.disparity[v] = &L.disparity[v];
     }
-    job.margin = l == 0 && want_confidence ? &margin : nullptr;
+    job.margin = l == 0 && want_confidence && margin_level == 0 ? &margin : nullptr;
     return job;
   }
 
@@ -480,7 +484,6 @@ struct Matcher::Impl {
     frame.start();
     clock.start();
 
-    const int views = need_right ? 2 : 1;
     for (int v = 0; v < 2; ++v) stages->to_gray(*input[v], full_gray[v][0]);
     // The weighted median's colour: the left view's channels (gray input: the gray plane itself).
     const bool colour = params.weighted_median && left.format != PixelFormat::Gray8;
@@ -501,15 +504,15 @@ struct Matcher::Impl {
 
     const detail::CensusConfig census{params.census, params.census_window, params.mct_kernel};
     for (int l = static_cast<int>(levels.size()) - 1; l >= 0; --l) {
-      if (params.sgm()) {
-        Level& L = levels[l];
+      Level& L = levels[l];
+      if (L.is_sgm) {
         for (int v = 0; v < 2; ++v) stages->census_transform(level_image(l, v), census, L.codes[v]);
         slot_ms[kCensus] += clock.lap_ms();
         match_sgm(l, L.coarsest ? nullptr : &levels[l + 1].disparity[0]);
       } else {
         // The codes are made inside the stage (strip by strip on the cpu backend): its time is
         // the match stage's.
-        stages->census_match(census_match_job(l, census, views), match_scratch);
+        stages->census_match(census_match_job(l, census, L.right_map ? 2 : 1), match_scratch);
       }
       slot_ms[kMatch] += clock.lap_ms();
       refine_level(levels[l], l == 0, clock);
@@ -545,12 +548,12 @@ struct Matcher::Impl {
       w.width = L.width;
       w.height = L.height;
       double total = 0.0;
-      if (params.sgm()) {
+      if (L.is_sgm) {
         w.views = 1;
         for (int y = 0; y < L.height; ++y)
           for (int x = 0; x < L.width; ++x) total += L.sgm.count.at(x, y);
       } else {
-        w.views = need_right ? 2 : 1;
+        w.views = L.right_map ? 2 : 1;
         for (int v = 0; v < w.views; ++v) {
           const Plane<std::int16_t>* prior = L.coarsest ? nullptr : &levels[l + 1].disparity[v];
           for (int y = 0; y < L.height; ++y)
@@ -670,7 +673,7 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   const auto map_bytes = [](int w, int h) { return Plane<std::int16_t>::bytes_for(w, h); };
   const bool need_right = params.lr_check || options.compute_right;
   const int views = need_right ? 2 : 1;
-  const detail::LevelPlan plan = detail::plan_levels(params, width, height);
+  const detail::LevelPlan plan = detail::plan_levels(params, width, height, need_right);
   const int scale_steps = static_cast<int>(plan.working.size()) - 1;
   const int words = plan.census_words;
   std::size_t total = 0;
@@ -678,26 +681,30 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   for (const detail::Size2& s : plan.working) total += (params.weighted_median ? 5 : 2) * gray_bytes(s.width, s.height);
   for (const detail::LevelSpec& L : plan.levels) {
     if (L.scale_log2 > scale_steps) total += 2 * gray_bytes(L.width, L.height);
-    if (whole_code_planes(params, Backend::Cpu))
+    if (whole_code_planes(L, Backend::Cpu))
       total += 2 * words * Plane<std::uint32_t>::bytes_for(L.width, L.height, detail::kCodePad);
     total += views * 2 * map_bytes(L.width, L.height);
-    if (params.sgm()) total += detail::SgmVolume::plane_bytes_for(L.width, L.height, L.sgm_band, words);
+    if (L.is_sgm) total += detail::SgmVolume::plane_bytes_for(L.width, L.height, L.sgm_band, words);
   }
   const int w0 = plan.finest().width, h0 = plan.finest().height;
   const int threads = options.threads > 0 ? options.threads : default_threads();
-  if (!params.sgm()) {
+  if (plan.box_range > 0) {
     const int max_shd = std::max(params.shd_window, params.coarse_shd_window);
-    total += threads * ((detail::cpu::census_match_scratch_bytes(w0, plan.max_range, max_shd, words) + 63) / 64 * 64);
+    total += threads * ((detail::cpu::census_match_scratch_bytes(w0, plan.box_range, max_shd, words) + 63) / 64 * 64);
   }
   if (params.speckle_size > 0) total += Plane<std::int32_t>::bytes_for(w0, h0) + static_cast<std::size_t>(w0) * h0 * 4;
-  if (params.sgm()) {
-    // The cost and sum storage every level shares and the stages' scratch.
+  if (plan.sgm_levels > 0) {
+    // The cost and sum storage every SGM level shares and the stages' scratch.
+    const detail::LevelSpec& s = plan.finest_sgm();
     total += 2 * plan.sgm_entries * sizeof(std::uint16_t);
-    total += threads * ((detail::cpu::sgm_scratch_bytes(w0, h0, plan.sgm_max_stride) + 63) / 64 * 64);
+    total += threads * ((detail::cpu::sgm_scratch_bytes(s.width, s.height, plan.sgm_max_stride) + 63) / 64 * 64);
   }
-  // Margins, confidence at the working scale and at the output size.
-  if (params.sgm() || options.compute_confidence)
-    total += 2 * Plane<std::uint8_t>::bytes_for(w0, h0) + Plane<float>::bytes_for(width, height);
+  // Margins (at the plan's margin level), confidence at the working scale and at the output size.
+  if (params.sgm() || options.compute_confidence) {
+    const detail::LevelSpec& m = plan.levels[static_cast<std::size_t>(plan.margin_level)];
+    total += Plane<std::uint8_t>::bytes_for(m.width, m.height) + Plane<std::uint8_t>::bytes_for(w0, h0) +
+             Plane<float>::bytes_for(width, height);
+  }
   const int outputs = options.compute_right ? 2 : 1;
   total += outputs * map_bytes(width, height) * (scale_steps > 0 ? 2 : 1) + Plane<float>::bytes_for(width, height);
   return total;

@@ -301,7 +301,7 @@ inline int confidence_agreement(int v, int r, int den) {
 }
 
 /// Confidence of one pixel: see the stage confidence().
-inline std::uint8_t confidence_at(const Plane<std::uint8_t>& margin, const Plane<std::int16_t>& checked,
+inline std::uint8_t confidence_at(const Plane<std::uint8_t>& margin, int margin_shift, const Plane<std::int16_t>& checked,
                                   const Plane<std::int16_t>* right, int threshold, int x, int y) {
   const int v = checked.at(x, y);
   if (v == kInvalid) return 0;
@@ -311,7 +311,7 @@ inline std::uint8_t confidence_at(const Plane<std::uint8_t>& margin, const Plane
     const int xr = x - ((v + 8) >> 4);
     num = confidence_agreement(v, xr >= 0 && xr < checked.width() ? right->at(xr, y) : kInvalid, den);
   }
-  return static_cast<std::uint8_t>(margin.at(x, y) * num / den);
+  return static_cast<std::uint8_t>(margin.at(x >> margin_shift, y >> margin_shift) * num / den);
 }
 
 /// Padding (entries) on each side of the cpu right-view rows of sgm_select: a vector run of a
@@ -419,8 +419,10 @@ inline int level_max(int dmax, int l) { return -((-dmax) >> l); }
   std::size_t sgm_scratch_bytes(int width, int height, int stride);                              \
   /* Confidence in 0..255 at the pixels valid in `checked` (the map after the LR check and      */ \
   /* speckle removal): margin x agreement, agreement = max(0, 16 (t + 1) - |v - dR|) / (16(t+1)) */ \
-  /* with dR the right map at x - ((v + 8) >> 4) (1 without a right map); 0 elsewhere.          */ \
-  void confidence(const Plane<std::uint8_t>& margin, const Plane<std::int16_t>& checked,            \
+  /* with dR the right map at x - ((v + 8) >> 4) (1 without a right map); 0 elsewhere. The     */ \
+  /* margin of (x, y) is margin(x >> margin_shift, y >> margin_shift): a coarser level's, 2^s   */ \
+  /* times smaller, when the finest levels match with box sums under SGM levels.               */ \
+  void confidence(const Plane<std::uint8_t>& margin, int margin_shift, const Plane<std::int16_t>& checked, \
                   const Plane<std::int16_t>* right, int threshold, Plane<std::uint8_t>& dst);        \
   /* Winners on the sums: the left map, the right map when right != nullptr (from the same sums:*/ \
   /* S_R(x, d) = S(x + d, d) where that left pixel searched d), and the left winners' margin     */ \

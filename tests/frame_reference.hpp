@@ -166,7 +166,12 @@ inline FrameResult reference_frame(const ImageView& left, const ImageView& right
     for (int c = 0; c < 3; ++c) colour.plane[c] = &levels[0].image[0];
   }
 
-  Plane<std::uint8_t> margin(w0, h0), confidence_q8(w0, h0);
+  // The confidence takes the winners' margins of the finest level, or with box levels under band
+  // SGM those of the finest SGM level, replicated.
+  int margin_level = 0;
+  if (p.sgm())
+    while (!p.sgm_at(margin_level)) ++margin_level;
+  Plane<std::uint8_t> margin(levels[margin_level].width, levels[margin_level].height), confidence_q8(w0, h0);
   detail::SpeckleScratch speckle;
   speckle.label.reset(w0, h0);
   speckle.stack = detail::allocate_aligned<std::int32_t>(static_cast<std::size_t>(w0) * h0);
@@ -175,8 +180,8 @@ inline FrameResult reference_frame(const ImageView& left, const ImageView& right
     const fr::RecipeLevel* coarser = l + 1 < p.pyramid_levels ? &levels[l + 1] : nullptr;
     const bool finest = l == 0;
     for (int v = 0; v < 2; ++v) L.codes[v] = fr::census_of(L.image[v], p);
-    Plane<std::uint8_t>* level_margin = finest && want_confidence ? &margin : nullptr;
-    if (p.sgm())
+    Plane<std::uint8_t>* level_margin = l == margin_level && want_confidence ? &margin : nullptr;
+    if (p.sgm_at(l))
       fr::match_band_sgm(L, coarser, p, finest, need_right, level_margin);
     else
       fr::match_box(L, coarser, p, finest, views, level_margin);
@@ -198,7 +203,7 @@ inline FrameResult reference_frame(const ImageView& left, const ImageView& right
     if (speckle_size > 1)
       for (int v = 0; v < kept; ++v) ref::remove_speckles(L.map[v], speckle_size, 16, speckle);
     if (finest && want_confidence)
-      ref::confidence(margin, L.map[0], need_right ? &L.map[1] : nullptr, p.lr_threshold, confidence_q8);
+      ref::confidence(margin, margin_level, L.map[0], need_right ? &L.map[1] : nullptr, p.lr_threshold, confidence_q8);
     for (int v = 0; v < kept; ++v) ref::fill_invalid(L.map[v], p.fill);
     int first_post = 0;
     if (finest && p.weighted_median) {

@@ -56,8 +56,18 @@ TEST(Params, SgmParametersAreChecked) {
   q = p;
   q.aggregation = Aggregation::Box;
   expect_message(q, "prior_size = 5 needs SGM aggregation");
+  q = p;
+  q.box_levels = 5;
+  expect_message(q, "box_levels = 5 must be in [0, 4]");
+  q.box_levels = -1;
+  expect_message(q, "box_levels = -1 must be in [0, 4]");
+  q = p;
+  q.aggregation = Aggregation::Box;
+  q.prior_size = 3;
+  expect_message(q, "box_levels = 1 needs SGM aggregation");
   // 8 paths x (9 x 9 x 80 + 300) = 54240 fits; 8 x (6480 + 2000) does not.
   q = p;
+  q.box_levels = 0;
   q.aggregation = Aggregation::Sgm8;
   q.census_window = 9;
   q.shd_window = 9;
@@ -65,7 +75,17 @@ TEST(Params, SgmParametersAreChecked) {
   q.sgm_p2 = 2000;
   expect_message(q, "SGM sums could overflow 16 bits: paths (8) x (largest cost 6480");
   expect_message(q, "exceeds 65534");
+  // With the finest level matched by box sums, the SGM levels' 3 x 3 costs bound the sums
+  // (8 x (720 + 2000)); with one level, that level is SGM's and its 9 x 9 costs count again.
+  q.box_levels = 1;
+  EXPECT_EQ(q.validate(), "");
+  EXPECT_TRUE(q.sgm_at(1) && q.sgm_at(2) && !q.sgm_at(0));
+  q.pyramid_levels = 1;
+  EXPECT_TRUE(q.sgm_at(0));
+  expect_message(q, "SGM sums could overflow 16 bits: paths (8) x (largest cost 6480");
+  q.pyramid_levels = 3;
   q.aggregation = Aggregation::Sgm4;  // 4 x 8480 fits
+  q.box_levels = 0;
   EXPECT_EQ(q.validate(), "");
 }
 

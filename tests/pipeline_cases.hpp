@@ -189,11 +189,24 @@ inline std::vector<PipelineCase> pipeline_cases() {
   unique.census_window = 7;
   unique.mct_kernel = MeanKernel::Box;
   out.push_back({"uniqueness_mct7_box_nearest", unique, 64, 40});
-  StereoParams finest = preset("balanced");
-  finest.refine_all_levels = false;
-  finest.speckle_size = 400;  // speckle removal at the finest level only, large regions
-  finest.num_disparities = 24;
-  out.push_back({"finest_only_large_speckles", finest, 90, 50});
+  StereoParams every = preset("balanced");
+  every.refine_all_levels = true;
+  every.speckle_size = 400;  // large regions, at every level
+  every.num_disparities = 24;
+  out.push_back({"every_level_refined_large_speckles", every, 90, 50});
+  // Band SGM at every level of balanced's band, and at the coarsest of four levels only (box
+  // sums at the three finer ones, 5 x 5 prior of the one SGM level, uniqueness there).
+  StereoParams all_sgm = preset("balanced");
+  all_sgm.box_levels = 0;
+  all_sgm.min_disparity = -3;
+  all_sgm.num_disparities = 29;
+  out.push_back({"sgm_at_every_level", all_sgm, 87, 41});
+  StereoParams one_sgm = preset("balanced");
+  one_sgm.pyramid_levels = 4;
+  one_sgm.box_levels = 3;
+  one_sgm.uniqueness_ratio = 15;
+  one_sgm.num_disparities = 48;
+  out.push_back({"sgm_at_the_coarsest_of_four", one_sgm, 121, 67});
   StereoParams plain = preset("balanced");
   plain.median_size = 0;
   plain.post_median_size = 0;
@@ -215,6 +228,7 @@ inline std::vector<PipelineCase> pipeline_cases() {
   odd.num_disparities = 21;
   out.push_back({"odd_131x37", odd, 131, 37});
   StereoParams sgm8 = preset("balanced");
+  sgm8.box_levels = 0;
   sgm8.aggregation = Aggregation::Sgm8;
   sgm8.sgm_p2_k = 0;
   sgm8.subpixel = true;

@@ -337,24 +337,31 @@ TEST(Pipeline, ConfidenceMapOfSgm) {
   const StereoPair pair = textured_pair(120, 60, 12, 4);
   StereoParams p = preset("balanced");
   p.num_disparities = 24;
-  Matcher m(120, 60, p);
-  EXPECT_EQ(m.confidence().data, nullptr);
-  m.compute(pair.left_view(), pair.right_view());
-  const auto c = m.confidence();
-  ASSERT_NE(c.data, nullptr);
-  int high = 0;
-  for (int y = 0; y < 60; ++y)
-    for (int x = 0; x < 120; ++x) {
-      EXPECT_GE(c.at(x, y), 0.0f);
-      EXPECT_LE(c.at(x, y), 1.0f);
-      high += c.at(x, y) > 0.2f;
-    }
-  EXPECT_GT(high, 120 * 60 / 2);
-  // The pixels left of the smallest visible disparity have no match: the checks drop them.
-  EXPECT_EQ(c.at(0, 30), 0.0f);
+  // balanced (box sums at the finest level, whose margins the confidence takes), then SGM at
+  // every level (the margins of the sums).
+  for (const int box_levels : {1, 0}) {
+    SCOPED_TRACE(box_levels);
+    p.box_levels = box_levels;
+    Matcher m(120, 60, p);
+    EXPECT_EQ(m.confidence().data, nullptr);
+    m.compute(pair.left_view(), pair.right_view());
+    const auto c = m.confidence();
+    ASSERT_NE(c.data, nullptr);
+    int high = 0;
+    for (int y = 0; y < 60; ++y)
+      for (int x = 0; x < 120; ++x) {
+        EXPECT_GE(c.at(x, y), 0.0f);
+        EXPECT_LE(c.at(x, y), 1.0f);
+        high += c.at(x, y) > 0.2f;
+      }
+    EXPECT_GT(high, 120 * 60 / 2);
+    // The pixels left of the smallest visible disparity have no match: the checks drop them.
+    EXPECT_EQ(c.at(0, 30), 0.0f);
+  }
   StereoParams box = p;
   box.aggregation = Aggregation::Box;
   box.prior_size = 3;
+  box.box_levels = 0;
   Matcher local(120, 60, box);
   local.compute(pair.left_view(), pair.right_view());
   EXPECT_EQ(local.confidence().data, nullptr);
@@ -429,6 +436,7 @@ TEST(Pipeline, LevelWorkCountsTheCandidatesOfEachLevel) {
 
   StereoParams sgm = preset("balanced");
   sgm.num_disparities = 64;
+  sgm.box_levels = 0;  // SGM at every level
   Matcher band(256, 128, sgm);
   band.compute(left, right);
   const std::vector<LevelWork> band_work = band.level_work();
@@ -440,6 +448,21 @@ TEST(Pipeline, LevelWorkCountsTheCandidatesOfEachLevel) {
   EXPECT_DOUBLE_EQ(band_work.back().candidates, (136.0 + 48 * 17) / 64);
   EXPECT_GE(band_work.front().candidates, 5.0);
   EXPECT_LE(band_work.front().candidates, static_cast<double>(sgm.sgm_max_band));
+
+  // balanced: the finest level matches both views with box sums around the SGM level's maps
+  // (3x3 prior, radius 3: at least 7 candidates), the SGM levels count as before.
+  sgm.box_levels = 1;
+  Matcher hybrid(256, 128, sgm);
+  hybrid.compute(left, right);
+  const std::vector<LevelWork> hybrid_work = hybrid.level_work();
+  ASSERT_EQ(hybrid_work.size(), band_work.size());
+  EXPECT_EQ(hybrid_work[0].views, 2);
+  EXPECT_GE(hybrid_work[0].candidates, 7.0);
+  EXPECT_LE(hybrid_work[0].candidates, 20.0);
+  for (std::size_t l = 1; l < hybrid_work.size(); ++l) {
+    EXPECT_EQ(hybrid_work[l].views, 1) << l;
+    EXPECT_DOUBLE_EQ(hybrid_work[l].candidates, band_work[l].candidates) << l;
+  }
 }
 
 TEST(Pipeline, MemoryGrowsWithTheSearchWidthNotTheRange) {

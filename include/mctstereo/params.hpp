@@ -94,6 +94,12 @@ struct StereoParams {
   /// (docs/PIPELINE.md, "Band SGM"). With SGM, shd_window and coarse_shd_window are the box of the
   /// matching cost C that the paths aggregate.
   Aggregation aggregation = Aggregation::Box;
+  /// With SGM aggregation: the finest this many pyramid levels match locally (box sums of
+  /// shd_window, or coarse_shd_window below the finest level, around the 3x3 prior as the box
+  /// pipeline does), the coarser ones by band SGM, whose maps give the priors. 0 = every level
+  /// SGM. Range [0, 4]; the coarsest level always aggregates by SGM (with pyramid_levels 1, the
+  /// one level does).
+  int box_levels = 0;
   /// SGM penalty for a step of one disparity between neighbours along a path. Range [0, 16383],
   /// units of the cost C (Hamming bits).
   int sgm_p1 = 40;
@@ -138,6 +144,8 @@ struct StereoParams {
   int max_disparity() const { return min_disparity + num_disparities - 1; }
   /// Whether the aggregation is semi-global.
   bool sgm() const { return aggregation != Aggregation::Box; }
+  /// Whether pyramid level l (0 = the finest) aggregates by SGM (box_levels).
+  bool sgm_at(int level) const { return sgm() && (level >= box_levels || level == pyramid_levels - 1); }
   /// SGM paths: 4 or 8 (0 for box aggregation).
   int sgm_paths() const { return aggregation == Aggregation::Sgm4 ? 4 : aggregation == Aggregation::Sgm8 ? 8 : 0; }
   /// The search radius of the finest level.

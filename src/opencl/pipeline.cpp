@@ -181,7 +181,8 @@ Pipeline::Pipeline(const DeviceInfo& device, int width, int height, const Stereo
     // others when they are refined.
     const bool check_right = options.compute_right || (params.refine_all_levels && params.pyramid_levels > 1);
     stages_ = std::make_unique<Stages>(*rt_, params, check_right, options.compute_right, want_confidence_);
-    for (int l = 0; l < params.pyramid_levels && !params.sgm(); ++l) {
+    for (int l = 0; l < params.pyramid_levels; ++l) {
+      if (levels_[l].is_sgm) continue;
       const MatchConfig config{-1, levels_[l].shd_window, params.subpixel && l == 0, params.uniqueness_ratio};
       levels_[l].match.emplace(*rt_, census_words(params.census_window), config, l == 0 && want_confidence_,
                                popcount_, rt_->device().gpu);
@@ -245,7 +246,7 @@ void Pipeline::allocate() {
     input_[v].height = height_;
     device_bytes_ += bytes;
   }
-  const LevelPlan plan = plan_levels(p, width_, height_);
+  const LevelPlan plan = plan_levels(p, width_, height_, need_right_);
   const int scale_steps = static_cast<int>(plan.working.size()) - 1;
   for (int v = 0; v < 2; ++v) {
     full_gray_[v].resize(plan.working.size());
@@ -273,11 +274,12 @@ void Pipeline::allocate() {
       plane(L.scratch[v], lw, lh);
     }
     if (L.refine && L.speckle > 1) L.host.reset(lw, lh);
-    if (p.sgm()) allocate_sgm_planes(L);
+    if (L.is_sgm) allocate_sgm_planes(L);
   }
-  if (p.sgm()) allocate_sgm_storage();
+  if (plan.sgm_levels > 0) allocate_sgm_storage();
   if (want_confidence_) {
-    plane(margin_, levels_[0].width, levels_[0].height);
+    margin_level_ = plan.margin_level;
+    plane(margin_, levels_[margin_level_].width, levels_[margin_level_].height);
     plane(confidence_, levels_[0].width, levels_[0].height);
   }
   if (p.speckle_size > 0) {
@@ -306,6 +308,7 @@ void Pipeline::allocate_sgm_planes(Level& L) {
 void Pipeline::allocate_sgm_storage() {
   std::size_t entries = 1, scratch = 1;
   for (const Level& L : levels_) {
+    if (!L.is_sgm) continue;
     entries = std::max(entries, SgmVolume::entries_for(L.width, L.height, L.sgm.band));
     scratch = std::max(scratch, DeviceSgmVolume::scratch_entries_for(L.width, L.height, L.sgm.band));
   }
@@ -314,6 +317,7 @@ void Pipeline::allocate_sgm_storage() {
   const cl::Buffer lines = rt_->buffer(scratch * sizeof(std::uint16_t));
   device_bytes_ += (2 * entries + scratch) * sizeof(std::uint16_t);
   for (Level& L : levels_) {
+    if (!L.is_sgm) continue;
     L.sgm.cost = cost;
     L.sgm.sum = sum;
     L.sgm.scratch = lines;
@@ -350,7 +354,6 @@ void Pipeline::upload_input(const ImageView& image, int v) {
 }
 
 void Pipeline::run_levels() {
-  const int views = need_right_ ? 2 : 1;
   for (int v = 0; v < 2; ++v) {
     for (std::size_t s = 1; s < full_gray_[v].size(); ++s) stages_->pyramid.run(full_gray_[v][s - 1], full_gray_[v][s]);
     for (std::size_t l = 1; l < levels_.size(); ++l)
@@ -369,15 +372,15 @@ void Pipeline::run_levels() {
     for (int v = 0; v < 2; ++v) stages_->census.run(level_image(l, v), L.codes[v]);
 
     const bool coarsest = l + 1 == static_cast<int>(levels_.size());
-    if (params_.sgm()) {
+    if (L.is_sgm) {
       match_sgm(l, coarsest ? nullptr : &levels_[l + 1].disparity[0]);
       if (L.refine) refine(L, l == 0);
       continue;
     }
-    for (int v = 0; v < views; ++v) {
+    for (int v = 0; v < (L.right_map ? 2 : 1); ++v) {
       // Each view searches around the coarser level's map of the same view.
       const DevicePlane<std::int16_t>* prior = coarsest ? nullptr : &levels_[l + 1].disparity[v];
-      DevicePlane<std::uint8_t>* margin = v == 0 && l == 0 && want_confidence_ ? &margin_ : nullptr;
+      DevicePlane<std::uint8_t>* margin = v == 0 && l == 0 && want_confidence_ && margin_level_ == 0 ? &margin_ : nullptr;
       L.match->run(L.codes[v], L.codes[1 - v], prior, L.dmin, L.dmax, L.radius, v == 0 ? -1 : +1, L.disparity[v],
                    margin);
     }
@@ -394,10 +397,8 @@ void Pipeline::match_sgm(int l, const DevicePlane<std::int16_t>* prior) {
   const SgmPathConfig paths{params_.sgm_paths(), params_.sgm_p1, params_.sgm_p2, params_.sgm_p2_k};
   stages_->sgm_aggregate->run(level_image(l, 0), paths, L.sgm);
   const SgmSelectConfig select{params_.subpixel && l == 0, params_.uniqueness_ratio};
-  // A coarser level's right map serves only its own LR check (the band comes from the left map).
-  const bool right = need_right_ && (l == 0 || L.refine);
-  stages_->sgm_select->run(L.sgm, select, L.dmin, L.dmax, L.disparity[0], right ? &L.disparity[1] : nullptr,
-                           l == 0 ? &margin_ : nullptr);
+  stages_->sgm_select->run(L.sgm, select, L.dmin, L.dmax, L.disparity[0], L.right_map ? &L.disparity[1] : nullptr,
+                           l == margin_level_ ? &margin_ : nullptr);
 }
 
 // Matcher::Impl::refine on the device. At the finest level the right map only serves the left
@@ -421,7 +422,7 @@ void Pipeline::refine(Level& L, bool finest) {
     for (int v = 0; v < kept; ++v) remove_speckles_on_host(L, v, L.speckle);
   // The confidence of the final map: what survived the checks, before the fill guesses.
   if (finest && want_confidence_)
-    stages_->confidence->run(margin_, L.disparity[0], need_right_ ? &L.disparity[1] : nullptr, params_.lr_threshold,
+    stages_->confidence->run(margin_, margin_level_, L.disparity[0], need_right_ ? &L.disparity[1] : nullptr, params_.lr_threshold,
                              confidence_);
   for (int v = 0; v < kept; ++v) stages_->fill.run(L.disparity[v]);
   // The colour-weighted median and its 3x3 median take the place of the post-fill median in the

@@ -87,7 +87,9 @@ class Pipeline {
   std::unique_ptr<Stages> stages_;                       // made once; matching's are the levels' own
   DevicePlane<std::int16_t> upscaled_[2], out_q4_[2];
   DevicePlane<float> out_float_;
-  DevicePlane<std::uint8_t> margin_, confidence_;  // finest level, when want_confidence_
+  // The margins of the plan's margin_level and the finest level's confidence, when want_confidence_.
+  int margin_level_ = 0;
+  DevicePlane<std::uint8_t> margin_, confidence_;
   SpeckleScratch speckle_scratch_;  // speckle removal runs on the host
   double speckle_ms_ = 0;
   std::vector<StageTime> timings_;  // filled in place: a frame only changes the times

@@ -127,19 +127,21 @@ void SgmSelect::run(const DeviceSgmVolume& volume, const SgmSelectConfig& config
 
 Confidence::Confidence(Runtime& rt) : StageKernel(rt, "sgm", "confidence", options_of(rt)) {}
 
-void Confidence::run(const DevicePlane<std::uint8_t>& margin, const DevicePlane<std::int16_t>& checked,
+void Confidence::run(const DevicePlane<std::uint8_t>& margin, int margin_shift, const DevicePlane<std::int16_t>& checked,
                      const DevicePlane<std::int16_t>* right, int threshold, DevicePlane<std::uint8_t>& dst) {
   const int w = checked.width, h = checked.height;
-  check_size("confidence", "the margin plane", margin.width, margin.height, w, h);
+  // A margin plane 2^margin_shift times smaller: the sizes of the level halvings (rounded up).
+  const auto reduced = [margin_shift](int n) { return n == 0 ? 0 : ((n - 1) >> margin_shift) + 1; };
+  check_size("confidence", "the margin plane", margin.width, margin.height, reduced(w), reduced(h));
   check_size("confidence", "the destination", dst.width, dst.height, w, h);
   if (right != nullptr) check_size("confidence", "the right map", right->width, right->height, w, h);
   if (w == 0 || h == 0) return;
-  set_args(w, h, margin.buffer, margin.stride, checked.buffer, checked.stride);
+  set_args(w, h, margin.buffer, margin.stride, margin_shift, checked.buffer, checked.stride);
   if (right != nullptr)
-    set_args_from(6, right->buffer, right->stride);
+    set_args_from(7, right->buffer, right->stride);
   else
-    set_args_from(6, NoBuffer{}, 0);
-  set_args_from(8, threshold, dst.buffer, dst.stride);
+    set_args_from(7, NoBuffer{}, 0);
+  set_args_from(9, threshold, dst.buffer, dst.stride);
   enqueue(pixels_of(w, h), cl::NDRange(16, 4), "confidence");
 }
 

@@ -232,7 +232,8 @@ class SgmSelect {
 class Confidence : StageKernel {
  public:
   explicit Confidence(Runtime& rt);
-  void run(const DevicePlane<std::uint8_t>& margin, const DevicePlane<std::int16_t>& checked,
+  /// margin: 2^margin_shift times smaller than the map (reference::confidence).
+  void run(const DevicePlane<std::uint8_t>& margin, int margin_shift, const DevicePlane<std::int16_t>& checked,
            const DevicePlane<std::int16_t>* right, int threshold, DevicePlane<std::uint8_t>& dst);
 };
 

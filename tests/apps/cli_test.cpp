@@ -212,8 +212,11 @@ TEST_F(Cli, SgmFlagsAndConfidenceRefuseBadValues) {
   expect_failure(kPair + "-o d.pfm --prior-size 7", kUsage, "prior_size = 7 must be 3 or 5 (--prior-size)");
   expect_failure(kPair + "-o d.pfm --aggregation box --prior-size 5", kUsage, "prior_size = 5 needs SGM aggregation");
   expect_failure(kPair + "-o d.pfm --aggregation nonsense", kUsage, "--aggregation");
-  expect_failure(kPair + "-o d.pfm --aggregation sgm8 --census-window 9 --shd-window 9 --p2 3000", kUsage,
+  expect_failure(kPair + "-o d.pfm --aggregation sgm8 --census-window 9 --shd-window 9 --p2 3000 --box-levels 0", kUsage,
                  "SGM sums could overflow 16 bits: paths (8) x (largest cost 6480");
+  expect_failure(kPair + "-o d.pfm --box-levels 5", kUsage, "box_levels = 5 must be in [0, 4] (--box-levels)");
+  expect_failure(kPair + "-o d.pfm --aggregation box --box-levels 1", kUsage,
+                 "box_levels = 1 needs SGM aggregation");
   expect_failure(kPair + "-o d.pfm --confidence c.txt", kUsage, "--confidence 'c.txt': unknown extension '.txt'");
   expect_failure(kPair + "-o d.pfm --confidence left.png", kUsage, "is the input");
   expect_failure(kPair + "-o d.pfm --confidence d.pfm", kUsage, "-o and --confidence are the same file 'd.pfm'");

@@ -197,7 +197,7 @@ SgmResult run_stages(const SgmCase& c, const ShiftedPair& pair, const Plane<std:
   SgmResult r{Plane<std::int16_t>(c.w, c.h), Plane<std::int16_t>(c.w, c.h), Plane<std::int16_t>(c.w, c.h),
               Plane<std::int16_t>(c.w, c.h), Plane<std::uint8_t>(c.w, c.h), Plane<std::uint8_t>(c.w, c.h), {}, {}};
   stages.select(v, SgmSelectConfig{c.subpixel, c.uniqueness}, scratch, r.left, &r.right, &r.margin);
-  stages.confidence(r.margin, r.left, &r.right, 1, r.confidence);
+  stages.confidence(r.margin, 0, r.left, &r.right, 1, r.confidence);
   for (int y = 0; y < c.h; ++y)
     for (int x = 0; x < c.w; ++x) {
       r.lo.at(x, y) = v.lo.at(x, y);
@@ -289,6 +289,36 @@ TEST(SgmMargin, FastEqualsTheIntegerQuotient) {
   EXPECT_EQ(detail::sgm_margin_fast(0, 0, true), 0);
   EXPECT_EQ(detail::sgm_margin_fast(1, 3, false), 170);  // 255 x 2 / 3
   EXPECT_EQ(checked, 65534 * 64);
+}
+
+// The confidence with the margins of a level 2^s times smaller (box levels under band SGM): each
+// pixel takes the margin at (x >> s, y >> s). Known answers without a right map (agreement 1),
+// and the cpu stage equal to the reference with one, at odd sizes, 1 and 2 threads.
+TEST(SgmConfidence, MarginOfACoarserLevel) {
+  for (const auto& [w, h] : {std::pair{37, 11}, std::pair{64, 1}, std::pair{1, 9}, std::pair{130, 67}}) {
+    const Plane<std::int16_t> left = random_disparity(w, h, 5 + w, 0, 16 * 12, 0.2);
+    const Plane<std::int16_t> right = random_disparity(w, h, 9 + h, 0, 16 * 12, 0.2);
+    for (int shift : {0, 1, 2}) {
+      SCOPED_TRACE(testing::Message() << w << "x" << h << " shift " << shift);
+      const int mw = ((w - 1) >> shift) + 1, mh = ((h - 1) >> shift) + 1;
+      Plane<std::uint8_t> margin(mw, mh), want(w, h), got(w, h);
+      std::mt19937 rng(static_cast<std::uint32_t>(w * 31 + shift));
+      for (int y = 0; y < mh; ++y)
+        for (int x = 0; x < mw; ++x) margin.at(x, y) = static_cast<std::uint8_t>(rng() & 0xFF);
+      detail::reference::confidence(margin, shift, left, nullptr, 1, want);
+      for (int y = 0; y < h; ++y)
+        for (int x = 0; x < w; ++x)
+          ASSERT_EQ(want.at(x, y), left.at(x, y) == kInvalid ? 0 : margin.at(x >> shift, y >> shift)) << x << "," << y;
+      detail::reference::confidence(margin, shift, left, &right, 1, want);
+      const int saved = omp_get_max_threads();
+      for (int threads : {1, 2}) {
+        omp_set_num_threads(threads);
+        detail::cpu::confidence(margin, shift, left, &right, 1, got);
+        EXPECT_EQ(first_difference(got, want), "") << threads << " threads";
+      }
+      omp_set_num_threads(saved);
+    }
+  }
 }
 
 TEST(SgmStages, CpuEqualsReference) {

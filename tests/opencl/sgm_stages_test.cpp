@@ -114,14 +114,25 @@ void expect_stages_equal(Runtime& rt, const StageCase& c) {
   for (const auto* p : {&got_left, &got_right}) EXPECT_EQ(padding_difference(rt, *p), "");
   EXPECT_EQ(padding_difference(rt, got_margin), "");
 
-  // The confidence of the left map against the right one, and without a right map.
+  // The confidence of the left map against the right one, and without a right map; then with the
+  // margins of a level twice and four times smaller (every other and every fourth margin).
   for (bool with_right : {true, false}) {
     Plane<std::uint8_t> want(c.w, c.h);
-    detail::reference::confidence(want_margin, want_left, with_right ? &want_right : nullptr, 1, want);
+    detail::reference::confidence(want_margin, 0, want_left, with_right ? &want_right : nullptr, 1, want);
     DevicePlane<std::uint8_t> got = marked_plane<std::uint8_t>(rt, c.w, c.h);
-    detail::opencl::Confidence(rt).run(got_margin, got_left, with_right ? &got_right : nullptr, 1, got);
+    detail::opencl::Confidence(rt).run(got_margin, 0, got_left, with_right ? &got_right : nullptr, 1, got);
     EXPECT_EQ(first_difference(to_host(rt, got), want), "") << "confidence, right map " << with_right;
     EXPECT_EQ(padding_difference(rt, got), "");
+  }
+  for (int shift : {1, 2}) {
+    const int mw = ((c.w - 1) >> shift) + 1, mh = ((c.h - 1) >> shift) + 1;
+    Plane<std::uint8_t> coarse_margin(mw, mh), want(c.w, c.h);
+    for (int y = 0; y < mh; ++y)
+      for (int x = 0; x < mw; ++x) coarse_margin.at(x, y) = want_margin.at(x << shift, y << shift);
+    detail::reference::confidence(coarse_margin, shift, want_left, &want_right, 1, want);
+    DevicePlane<std::uint8_t> got = marked_plane<std::uint8_t>(rt, c.w, c.h);
+    detail::opencl::Confidence(rt).run(to_device(rt, coarse_margin), shift, got_left, &got_right, 1, got);
+    EXPECT_EQ(first_difference(to_host(rt, got), want), "") << "confidence, margin shift " << shift;
   }
 }
 

@@ -229,7 +229,7 @@ __kernel void sgm_select_right(int width, int height, __global const short* lo_p
 }
 
 // confidence_at() of stages.hpp, one work-item per pixel; right == 0: agreement 1.
-__kernel void confidence(int width, int height, __global const uchar* margin, int margin_stride,
+__kernel void confidence(int width, int height, __global const uchar* margin, int margin_stride, int margin_shift,
                          __global const short* checked, int checked_stride, __global const short* right,
                          int right_stride, int threshold, __global uchar* dst, int dst_stride) {
   const int x = (int)get_global_id(0), y = (int)get_global_id(1);
@@ -244,7 +244,7 @@ __kernel void confidence(int width, int height, __global const uchar* margin, in
       const int r = xr >= 0 && xr < width ? right[(size_t)y * right_stride + xr] : DISPARITY_INVALID;
       num = r == DISPARITY_INVALID ? 0 : max(0, den - (int)abs(v - r));
     }
-    out = (uchar)(margin[(size_t)y * margin_stride + x] * num / den);
+    out = (uchar)(margin[(size_t)(y >> margin_shift) * margin_stride + (x >> margin_shift)] * num / den);
   }
   dst[(size_t)y * dst_stride + x] = out;
 }
