@@ -46,6 +46,7 @@ struct StageTable {
   decltype(&detail::reference::median_filter) median_filter;
   decltype(&detail::reference::lr_check) lr_check;
   decltype(&detail::reference::remove_speckles) remove_speckles;
+  decltype(&detail::reference::speckle_label_width) speckle_label_width;
   decltype(&detail::reference::fill_invalid) fill_invalid;
   decltype(&detail::reference::upscale) upscale;
   decltype(&detail::reference::sgm_costs) sgm_costs;
@@ -61,7 +62,7 @@ struct StageTable {
   StageTable {                                                                                   \
     &ns::to_gray, &ns::pyramid_down, &ns::census_transform, &ns::census_match,                   \
         &ns::census_match_scratch_bytes, &ns::median_filter, &ns::lr_check, &ns::remove_speckles, \
-        &ns::fill_invalid, &ns::upscale, &ns::sgm_costs, &ns::sgm_aggregate, &ns::sgm_scratch_bytes, \
+        &ns::speckle_label_width, &ns::fill_invalid, &ns::upscale, &ns::sgm_costs, &ns::sgm_aggregate, &ns::sgm_scratch_bytes, \
         &ns::sgm_select, &ns::confidence, &ns::split_channels, &ns::weighted_median              \
   }
 const StageTable kReferenceStages = MCTSTEREO_STAGE_TABLE(detail::reference);
@@ -194,7 +195,6 @@ struct Matcher::Impl {
       wm_config.step = p.wm_step;
       wm_config.lut = detail::weighted_median_lut(p.wm_sigma);
     }
-    const int views = need_right ? 2 : 1;
     for (const detail::LevelSpec& spec : plan.levels) {
       Level& L = levels.emplace_back();
       static_cast<detail::LevelSpec&>(L) = spec;
@@ -206,9 +206,10 @@ struct Matcher::Impl {
         if (whole_code_planes(L, backend))
           for (int k = 0; k < L.codes[v].words; ++k) L.codes[v].plane[k].reset(lw, lh, detail::kCodePad);
       }
-      for (int v = 0; v < views; ++v) {
+      // The maps a level makes, and the scratch maps of its refinement.
+      for (int v = 0; v < (L.right_map ? 2 : 1); ++v) {
         L.disparity[v].reset(lw, lh);
-        L.scratch[v].reset(lw, lh);
+        if (L.refine) L.scratch[v].reset(lw, lh);
       }
       if (L.is_sgm) L.sgm.reset(lw, lh, L.sgm_band, plan.census_words, nullptr, nullptr);
     }
@@ -241,7 +242,7 @@ struct Matcher::Impl {
       match_scratch.data = detail::allocate_aligned<std::uint8_t>(match_scratch.bytes_per_thread * threads);
     }
     if (p.speckle_size > 0) {
-      speckle_scratch.label.reset(levels[0].width, levels[0].height);
+      speckle_scratch.label.reset(stages->speckle_label_width(levels[0].width), levels[0].height);
       speckle_scratch.stack =
           detail::allocate_aligned<std::int32_t>(static_cast<std::size_t>(levels[0].width) * levels[0].height);
     }
@@ -672,7 +673,6 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   const auto gray_bytes = [](int w, int h) { return Plane<std::uint8_t>::bytes_for(w, h); };
   const auto map_bytes = [](int w, int h) { return Plane<std::int16_t>::bytes_for(w, h); };
   const bool need_right = params.lr_check || options.compute_right;
-  const int views = need_right ? 2 : 1;
   const detail::LevelPlan plan = detail::plan_levels(params, width, height, need_right);
   const int scale_steps = static_cast<int>(plan.working.size()) - 1;
   const int words = plan.census_words;
@@ -683,7 +683,7 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
     if (L.scale_log2 > scale_steps) total += 2 * gray_bytes(L.width, L.height);
     if (whole_code_planes(L, Backend::Cpu))
       total += 2 * words * Plane<std::uint32_t>::bytes_for(L.width, L.height, detail::kCodePad);
-    total += views * 2 * map_bytes(L.width, L.height);
+    total += (L.right_map ? 2 : 1) * (L.refine ? 2 : 1) * map_bytes(L.width, L.height);
     if (L.is_sgm) total += detail::SgmVolume::plane_bytes_for(L.width, L.height, L.sgm_band, words);
   }
   const int w0 = plan.finest().width, h0 = plan.finest().height;
@@ -692,7 +692,8 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
     const int max_shd = std::max(params.shd_window, params.coarse_shd_window);
     total += threads * ((detail::cpu::census_match_scratch_bytes(w0, plan.box_range, max_shd, words) + 63) / 64 * 64);
   }
-  if (params.speckle_size > 0) total += Plane<std::int32_t>::bytes_for(w0, h0) + static_cast<std::size_t>(w0) * h0 * 4;
+  if (params.speckle_size > 0)
+    total += Plane<std::int32_t>::bytes_for(detail::cpu::speckle_label_width(w0), h0) + static_cast<std::size_t>(w0) * h0 * 4;
   if (plan.sgm_levels > 0) {
     // The cost and sum storage every SGM level shares and the stages' scratch.
     const detail::LevelSpec& s = plan.finest_sgm();

@@ -403,6 +403,9 @@ inline int level_max(int dmax, int l) { return -((-dmax) >> l); }
   /* Invalidates 4-connected regions (neighbours within max_diff_q4) of fewer than max_size px. */ \
   void remove_speckles(Plane<std::int16_t>& disparity, int max_size, int max_diff_q4,             \
                        SpeckleScratch& scratch);                                                   \
+  /* Width of scratch.label for maps `width` wide (its height: the maps'; scratch.stack holds    */ \
+  /* width x height entries).                                                                   */ \
+  int speckle_label_width(int width);                                                            \
   /* Fills invalid pixels along their row. */                                                     \
   void fill_invalid(Plane<std::int16_t>& disparity, FillMode mode);                               \
   /* Replicates each pixel factor x factor and multiplies by factor, clamped to [lo_q4, hi_q4]; */ \

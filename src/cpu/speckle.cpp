@@ -9,7 +9,7 @@
 //
 // Scratch use:
 // - scratch.label, row y: the masks of row y as uint32 words (bit x % 32 of word x / 32), three
-//   arrays of ceil(W / 32) words; they fit in the row with its slack (3 ceil(W / 32) <= W + 16).
+//   arrays of ceil(W / 32) words (speckle_label_width(): a twelfth of the reference's labels).
 // - scratch.stack: the union-find forest, one entry per pixel index y W + x, of which only the
 //   first pixel of each run (its head) is used. A root holds -(size of its component); any other
 //   head holds the index of another head of the same component.
@@ -152,6 +152,9 @@ struct RowMaskView {
 };
 
 }  // namespace
+
+// The three mask arrays of a row.
+int speckle_label_width(int width) { return 3 * ((width + 31) / 32); }
 
 void remove_speckles(Plane<std::int16_t>& disparity, int max_size, int max_diff_q4, SpeckleScratch& scratch) {
   const int w = disparity.width(), h = disparity.height();

@@ -258,7 +258,6 @@ void Pipeline::allocate() {
       for (auto& channel : full_colour_[s]) plane(channel, plan.working[s].width, plan.working[s].height);
   }
   levels_.resize(plan.levels.size());
-  const int views = need_right_ ? 2 : 1;
   for (std::size_t l = 0; l < plan.levels.size(); ++l) {
     Level& L = levels_[l];
     static_cast<LevelSpec&>(L) = plan.levels[l];
@@ -269,9 +268,10 @@ void Pipeline::allocate() {
       L.codes[v].words = plan.census_words;
       for (int k = 0; k < L.codes[v].words; ++k) plane(L.codes[v].plane[k], lw, lh);
     }
-    for (int v = 0; v < views; ++v) {
+    // The maps a level makes, and the scratch maps of its refinement.
+    for (int v = 0; v < (L.right_map ? 2 : 1); ++v) {
       plane(L.disparity[v], lw, lh);
-      plane(L.scratch[v], lw, lh);
+      if (L.refine) plane(L.scratch[v], lw, lh);
     }
     if (L.refine && L.speckle > 1) L.host.reset(lw, lh);
     if (L.is_sgm) allocate_sgm_planes(L);
@@ -283,7 +283,7 @@ void Pipeline::allocate() {
     plane(confidence_, levels_[0].width, levels_[0].height);
   }
   if (p.speckle_size > 0) {
-    speckle_scratch_.label.reset(levels_[0].width, levels_[0].height);
+    speckle_scratch_.label.reset(cpu::speckle_label_width(levels_[0].width), levels_[0].height);
     speckle_scratch_.stack =
         allocate_aligned<std::int32_t>(static_cast<std::size_t>(levels_[0].width) * levels_[0].height);
   }

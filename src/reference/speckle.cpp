@@ -4,6 +4,9 @@
 
 namespace mctstereo::detail::reference {
 
+// One label per pixel.
+int speckle_label_width(int width) { return width; }
+
 void remove_speckles(Plane<std::int16_t>& disparity, int max_size, int max_diff_q4,
                      SpeckleScratch& scratch) {
   const int w = disparity.width(), h = disparity.height();

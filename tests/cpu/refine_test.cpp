@@ -24,9 +24,11 @@ Plane<std::int16_t> copy_of(const Plane<std::int16_t>& p) {
   return c;
 }
 
-SpeckleScratch make_scratch(int w, int h) {
+// The scratch for maps of w x h, with the labels the backend asks for (the cpu backend's are its
+// row masks, a twelfth of the reference's: exactly that, so that an overrun would show).
+SpeckleScratch make_scratch(int w, int h, int (*label_width)(int) = &reference::speckle_label_width) {
   SpeckleScratch s;
-  s.label.reset(w, h);
+  s.label.reset(label_width(w), h);
   s.stack = detail::allocate_aligned<std::int32_t>(static_cast<std::size_t>(w) * h);
   return s;
 }
@@ -276,7 +278,7 @@ TEST(RefineCpu, RemoveSpecklesMatchesReference) {
   for (const auto& w_h : awkward_sizes()) {
     const auto w = w_h.first;
     const auto h = w_h.second;
-    SpeckleScratch scratch = make_scratch(w, h);
+    SpeckleScratch scratch = make_scratch(w, h), cpu_scratch = make_scratch(w, h, &cpu::speckle_label_width);
     for (const MapKind& kind : kMapKinds) {
       const Plane<std::int16_t> maps[] = {
           speckle_map(w, h, ++seed, 8, kind.invalid),
@@ -293,7 +295,7 @@ TEST(RefineCpu, RemoveSpecklesMatchesReference) {
           for_each_target_and_threads([&](const std::string& where) {
             Plane<std::int16_t> actual = copy_of(map);
             // The scratch holds whatever earlier calls left in it, as in the driver.
-            cpu::remove_speckles(actual, max_size, 16, scratch);
+            cpu::remove_speckles(actual, max_size, 16, cpu_scratch);
             ASSERT_EQ(first_difference(expected, actual), "")
                 << w << "x" << h << " size " << max_size << " invalid " << kind.invalid << " on " << where;
           });
@@ -305,26 +307,26 @@ TEST(RefineCpu, RemoveSpecklesMatchesReference) {
 
 TEST(RefineCpu, RemoveSpecklesWithSmallerMapThanScratch) {
   // The driver sizes the scratch for the finest level and reuses it at coarser ones.
-  SpeckleScratch scratch = make_scratch(640, 480);
+  SpeckleScratch scratch = make_scratch(640, 480), cpu_scratch = make_scratch(640, 480, &cpu::speckle_label_width);
   for (const auto& w_h : {std::pair{320, 240}, {161, 121}, {33, 7}}) {
     const auto w = w_h.first;
     const auto h = w_h.second;
     const auto map = speckle_map(w, h, 77 + w, 8, 0.05);
     Plane<std::int16_t> expected = copy_of(map), actual = copy_of(map);
     reference::remove_speckles(expected, 50, 16, scratch);
-    cpu::remove_speckles(actual, 50, 16, scratch);
+    cpu::remove_speckles(actual, 50, 16, cpu_scratch);
     EXPECT_EQ(first_difference(expected, actual), "") << w << "x" << h;
   }
 }
 
 TEST(RefineCpu, RemoveSpecklesWithUnusualThresholds) {
   const auto map = speckle_map(65, 33, 5, 8, 0.1);
-  SpeckleScratch scratch = make_scratch(65, 33);
+  SpeckleScratch scratch = make_scratch(65, 33), cpu_scratch = make_scratch(65, 33, &cpu::speckle_label_width);
   for (int max_diff : {-1, 0, 1000, 70000}) {
     for (int max_size : {0, 2, 5000}) {
       Plane<std::int16_t> expected = copy_of(map), actual = copy_of(map);
       reference::remove_speckles(expected, max_size, max_diff, scratch);
-      cpu::remove_speckles(actual, max_size, max_diff, scratch);
+      cpu::remove_speckles(actual, max_size, max_diff, cpu_scratch);
       EXPECT_EQ(first_difference(expected, actual), "") << "max_diff " << max_diff << " size " << max_size;
     }
   }
