@@ -62,8 +62,9 @@ struct StageTable {
   StageTable {                                                                                   \
     &ns::to_gray, &ns::pyramid_down, &ns::census_transform, &ns::census_match,                   \
         &ns::census_match_scratch_bytes, &ns::median_filter, &ns::lr_check, &ns::remove_speckles, \
-        &ns::speckle_label_width, &ns::fill_invalid, &ns::upscale, &ns::sgm_costs, &ns::sgm_aggregate, &ns::sgm_scratch_bytes, \
-        &ns::sgm_select, &ns::confidence, &ns::split_channels, &ns::weighted_median              \
+        &ns::speckle_label_width, &ns::fill_invalid, &ns::upscale, &ns::sgm_costs,                \
+        &ns::sgm_aggregate, &ns::sgm_scratch_bytes, &ns::sgm_select, &ns::confidence,             \
+        &ns::split_channels, &ns::weighted_median                                                 \
   }
 const StageTable kReferenceStages = MCTSTEREO_STAGE_TABLE(detail::reference);
 const StageTable kCpuStages = MCTSTEREO_STAGE_TABLE(detail::cpu);
@@ -328,8 +329,8 @@ struct Matcher::Impl {
       for (int v = 0; v < kept; ++v) stages->remove_speckles(L.disparity[v], L.speckle, 16, speckle_scratch);
     // The confidence of the final map: what survived the checks, before the fill guesses.
     if (finest && want_confidence)
-      stages->confidence(margin, margin_level, L.disparity[0], need_right ? &L.disparity[1] : nullptr, params.lr_threshold,
-                         confidence_q8);
+      stages->confidence(margin, margin_level, L.disparity[0], need_right ? &L.disparity[1] : nullptr,
+                         params.lr_threshold, confidence_q8);
     for (int v = 0; v < kept; ++v) stages->fill_invalid(L.disparity[v], params.fill);
     // The colour-weighted median and its 3x3 median take the place of the post-fill median in the
     // left map of the finest level.
@@ -693,7 +694,8 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
     total += threads * ((detail::cpu::census_match_scratch_bytes(w0, plan.box_range, max_shd, words) + 63) / 64 * 64);
   }
   if (params.speckle_size > 0)
-    total += Plane<std::int32_t>::bytes_for(detail::cpu::speckle_label_width(w0), h0) + static_cast<std::size_t>(w0) * h0 * 4;
+    total += Plane<std::int32_t>::bytes_for(detail::cpu::speckle_label_width(w0), h0) +
+             static_cast<std::size_t>(w0) * h0 * 4;
   if (plan.sgm_levels > 0) {
     // The cost and sum storage every SGM level shares and the stages' scratch.
     const detail::LevelSpec& s = plan.finest_sgm();

@@ -38,7 +38,8 @@ void confidence(const Plane<std::uint8_t>& margin, int margin_shift, const Plane
                 const Plane<std::int16_t>* right, int threshold, Plane<std::uint8_t>& dst) {
   const int w = checked.width(), h = checked.height();
   const int den = 16 * (threshold + 1);
-  const std::uint64_t magic = ((std::uint64_t{1} << 32) + static_cast<std::uint64_t>(den) - 1) / static_cast<std::uint64_t>(den);
+  const auto den64 = static_cast<std::uint64_t>(den);
+  const std::uint64_t magic = ((std::uint64_t{1} << 32) + den64 - 1) / den64;
   parallel_lines(h, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y)
       confidence_row(checked.row(y), right ? right->row(y) : nullptr, margin.row(y >> margin_shift), margin_shift, w,

@@ -380,7 +380,8 @@ void Pipeline::run_levels() {
     for (int v = 0; v < (L.right_map ? 2 : 1); ++v) {
       // Each view searches around the coarser level's map of the same view.
       const DevicePlane<std::int16_t>* prior = coarsest ? nullptr : &levels_[l + 1].disparity[v];
-      DevicePlane<std::uint8_t>* margin = v == 0 && l == 0 && want_confidence_ && margin_level_ == 0 ? &margin_ : nullptr;
+      const bool margins_here = v == 0 && l == 0 && want_confidence_ && margin_level_ == 0;
+      DevicePlane<std::uint8_t>* margin = margins_here ? &margin_ : nullptr;
       L.match->run(L.codes[v], L.codes[1 - v], prior, L.dmin, L.dmax, L.radius, v == 0 ? -1 : +1, L.disparity[v],
                    margin);
     }
@@ -422,8 +423,8 @@ void Pipeline::refine(Level& L, bool finest) {
     for (int v = 0; v < kept; ++v) remove_speckles_on_host(L, v, L.speckle);
   // The confidence of the final map: what survived the checks, before the fill guesses.
   if (finest && want_confidence_)
-    stages_->confidence->run(margin_, margin_level_, L.disparity[0], need_right_ ? &L.disparity[1] : nullptr, params_.lr_threshold,
-                             confidence_);
+    stages_->confidence->run(margin_, margin_level_, L.disparity[0], need_right_ ? &L.disparity[1] : nullptr,
+                             params_.lr_threshold, confidence_);
   for (int v = 0; v < kept; ++v) stages_->fill.run(L.disparity[v]);
   // The colour-weighted median and its 3x3 median take the place of the post-fill median in the
   // left map of the finest level.

@@ -127,7 +127,8 @@ void SgmSelect::run(const DeviceSgmVolume& volume, const SgmSelectConfig& config
 
 Confidence::Confidence(Runtime& rt) : StageKernel(rt, "sgm", "confidence", options_of(rt)) {}
 
-void Confidence::run(const DevicePlane<std::uint8_t>& margin, int margin_shift, const DevicePlane<std::int16_t>& checked,
+void Confidence::run(const DevicePlane<std::uint8_t>& margin, int margin_shift,
+                     const DevicePlane<std::int16_t>& checked,
                      const DevicePlane<std::int16_t>* right, int threshold, DevicePlane<std::uint8_t>& dst) {
   const int w = checked.width, h = checked.height;
   // A margin plane 2^margin_shift times smaller: the sizes of the level halvings (rounded up).
