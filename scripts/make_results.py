@@ -1288,7 +1288,8 @@ def speed_stages(report, bench, file_name, d, t):
     report.add("The local presets (`realtime` and the thesis variants) make their census codes inside the match "
                "stage (census_match: each strip of rows gets its codes right before its tiles are matched), so "
                "their census column is 0 and their match column includes the census of both views; the band SGM "
-               "presets still run the census as a stage of its own.")
+               "levels run the census as a stage of its own (`balanced`: its two coarser levels, whose finest level "
+               "matches with box sums inside the match stage).")
     # How the match stage grows with the range, at the headline-like size.
     if len(bench.disparities) > 1:
         size = pick(bench.sizes, (640, 480))
@@ -1449,8 +1450,9 @@ def speed_scaling(report, bench, file_name):
                "the census and the matching cost more per pixel there than at 640x480. "
                "**Refine** (median, LR check, fill) and "
                "**gray**/**pyramid** are passes over whole planes, bound by memory traffic once a plane leaves the "
-               "L2 cache: their time per pixel is what grows at 4K. Band SGM (`balanced`, `quality`) is bound by "
-               "memory: the path sums read and write the cost volume four times per frame.")
+               "L2 cache: their time per pixel is what grows at 4K. Band SGM (`quality` at every level, `balanced` "
+               "at its two coarser levels) is bound by memory: the path sums read and write the cost volume four "
+               "times per level; `balanced`'s finest level matches with box sums, as the local presets do.")
 
 
 def speed_opencl(report, bench, file_name):
