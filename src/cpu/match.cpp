@@ -102,8 +102,8 @@ HWY_INLINE hn::Vec<DU32> Popcounts(const std::uint32_t* const* rp, const std::ui
 // Two u32 vectors of popcounts (at most 96 each) as one int16 vector, columns in order.
 HWY_INLINE V16 NarrowPair(hn::Vec<DU32> lo, hn::Vec<DU32> hi) {
   const D16 d16;
-  const DI32 di32;
 #if HWY_TARGET == HWY_AVX2 || HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+  const DI32 di32;
   // The x86 pack works per 128-bit block (lo's 4 values, then hi's); one 64-bit lane permute
   // puts the blocks back in column order: one shuffle less than a general two-table permute.
   const V16 packed = hn::ReorderDemote2To(d16, hn::BitCast(di32, lo), hn::BitCast(di32, hi));
@@ -115,6 +115,7 @@ HWY_INLINE V16 NarrowPair(hn::Vec<DU32> lo, hn::Vec<DU32> hi) {
 #endif
   return hn::BitCast(d16, hn::TableLookupLanes(hn::BitCast(d64, packed), hn::SetTableIndices(d64, kOrder)));
 #elif HWY_TARGET == HWY_SSE4 || HWY_TARGET == HWY_SSSE3 || HWY_TARGET == HWY_EMU128
+  const DI32 di32;
   return hn::ReorderDemote2To(d16, hn::BitCast(di32, lo), hn::BitCast(di32, hi));  // in order
 #else
   // Elsewhere the low halves of the u32 lanes are the values.

@@ -192,7 +192,8 @@ TEST(WeightedMedianCpu, MatchesReference) {
     for (const MapKind& kind : kMapKinds) {
       for (const RangeCase& range : ranges) {
         const auto src = random_disparity(w, h, ++seed, range.lo_q4, range.hi_q4, kind.invalid, kind.whole);
-        const Colour colour = random_colour(w, h, ++seed, static_cast<int>(seed % 3));
+        ++seed;
+        const Colour colour = random_colour(w, h, seed, static_cast<int>(seed % 3));
         for (const ConfigCase& cc : configs) {
           const WeightedMedianConfig c = config(cc.radius, cc.step, cc.sigma);
           for (int channels : {1, 3}) {

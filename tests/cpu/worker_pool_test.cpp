@@ -31,8 +31,9 @@ void count_chunk(const void* context, int chunk) {
     return;
   }
   if (t.busy[slot].exchange(1) != 0) ++t.slot_clashes;
-  for (volatile int spin = 0; spin < (chunk % 7) * 200; ++spin) {
-  }
+  // A little work of uneven length, which the compiler may not remove.
+  volatile int spin = 0;
+  while (spin < (chunk % 7) * 200) spin = spin + 1;
   ++t.runs[chunk];
   t.busy[slot].store(0);
 }
