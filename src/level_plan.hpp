@@ -44,16 +44,15 @@ struct LevelSpec {
 struct LevelPlan {
   std::vector<Size2> working;     ///< the input size, then each working-scale reduction
   std::vector<LevelSpec> levels;  ///< levels[0] is the finest (the working scale)
-  int max_range = 1;              ///< most disparities of any level
   int census_words = 1;
   std::size_t sgm_entries = 0;  ///< band SGM: cost (and sum) entries of the largest volume
   int sgm_max_stride = 16;      ///< band SGM: the widest slot
   int sgm_levels = 0;           ///< levels that aggregate by SGM (the coarsest ones)
   int box_range = 0;            ///< most disparities of a box level (0: none)
+  const LevelSpec& finest() const { return levels.front(); }
   /// The level whose winners' margins the confidence takes: the finest, or under SGM with box
   /// levels the finest SGM level (its margins replicated 2^margin_level times).
-  int margin_level = 0;
-  const LevelSpec& finest() const { return levels.front(); }
+  int margin_level() const { return sgm_levels > 0 ? static_cast<int>(levels.size()) - sgm_levels : 0; }
   /// The largest SGM level (its width sizes the SGM stages' scratch); only when sgm_levels > 0.
   const LevelSpec& finest_sgm() const { return levels[levels.size() - static_cast<std::size_t>(sgm_levels)]; }
 };
@@ -103,9 +102,7 @@ inline LevelPlan plan_levels(const StereoParams& p, int width, int height, bool 
     // view searches around it). SGM takes a finer level's band from the left map alone.
     const bool finer_box = l > 0 && !plan.levels.back().is_sgm;
     L.right_map = need_right && (l == 0 || L.refine || finer_box || !L.is_sgm);
-    plan.max_range = std::max(plan.max_range, L.range());
     plan.levels.push_back(L);
-    if (L.is_sgm && plan.sgm_levels == 1) plan.margin_level = l;
     lw = (lw + 1) / 2;
     lh = (lh + 1) / 2;
   }

@@ -229,7 +229,7 @@ struct Matcher::Impl {
       sgm_scratch.data = detail::allocate_aligned<std::uint8_t>(sgm_scratch.bytes_per_thread * threads);
     }
     if (want_confidence) {
-      margin_level = plan.margin_level;
+      margin_level = plan.margin_level();
       margin.reset(levels[margin_level].width, levels[margin_level].height);
       confidence_q8.reset(levels[0].width, levels[0].height);
       out_confidence.reset(w, h);
@@ -704,7 +704,7 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   }
   // Margins (at the plan's margin level), confidence at the working scale and at the output size.
   if (params.sgm() || options.compute_confidence) {
-    const detail::LevelSpec& m = plan.levels[static_cast<std::size_t>(plan.margin_level)];
+    const detail::LevelSpec& m = plan.levels[static_cast<std::size_t>(plan.margin_level())];
     total += Plane<std::uint8_t>::bytes_for(m.width, m.height) + Plane<std::uint8_t>::bytes_for(w0, h0) +
              Plane<float>::bytes_for(width, height);
   }

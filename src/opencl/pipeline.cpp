@@ -184,8 +184,10 @@ Pipeline::Pipeline(const DeviceInfo& device, int width, int height, const Stereo
     for (int l = 0; l < params.pyramid_levels; ++l) {
       if (levels_[l].is_sgm) continue;
       const MatchConfig config{-1, levels_[l].shd_window, params.subpixel && l == 0, params.uniqueness_ratio};
-      levels_[l].match.emplace(*rt_, census_words(params.census_window), config, l == 0 && want_confidence_,
-                               popcount_, rt_->device().gpu);
+      // Margins only where the confidence takes them (under SGM levels it takes theirs).
+      const bool margins = l == 0 && want_confidence_ && margin_level_ == 0;
+      levels_[l].match.emplace(*rt_, census_words(params.census_window), config, margins, popcount_,
+                               rt_->device().gpu);
     }
     // Buffers are allocated lazily by most drivers: a sum beyond the device is caught here, with
     // the numbers, rather than as an allocation failure in some kernel of the first frame.
@@ -278,7 +280,7 @@ void Pipeline::allocate() {
   }
   if (plan.sgm_levels > 0) allocate_sgm_storage();
   if (want_confidence_) {
-    margin_level_ = plan.margin_level;
+    margin_level_ = plan.margin_level();
     plane(margin_, levels_[margin_level_].width, levels_[margin_level_].height);
     plane(confidence_, levels_[0].width, levels_[0].height);
   }
