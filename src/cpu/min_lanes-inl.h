@@ -34,7 +34,11 @@ HWY_INLINE std::uint32_t MinPos8(__m128i v) { return static_cast<std::uint32_t>(
 template <class V = MinVecU16>
 HWY_INLINE int MinLane(V v) {
 #if HWY_ARCH_X86 && HWY_TARGET <= HWY_SSE4
-  if constexpr (sizeof(v.raw) == 32) {
+  if constexpr (sizeof(v.raw) == 64) {
+    namespace hn = hwy::HWY_NAMESPACE;
+    const hn::Half<hn::DFromV<V>> half;
+    return MinLane(hn::Min(hn::LowerHalf(half, v), hn::UpperHalf(half, v)));
+  } else if constexpr (sizeof(v.raw) == 32) {
     return MinPos8(_mm_min_epu16(_mm256_castsi256_si128(v.raw), _mm256_extracti128_si256(v.raw, 1))) & 0xFFFF;
   } else {
     return MinPos8(v.raw) & 0xFFFF;
@@ -44,12 +48,28 @@ HWY_INLINE int MinLane(V v) {
 #endif
 }
 
+/// The smallest of the lanes of d in v (d of up to 32 u16 lanes).
+template <class D, class V>
+HWY_INLINE int MinLaneOf(D d, V v) {
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_SSE4
+  (void)d;
+  return MinLane(v);
+#else
+  return hwy::HWY_NAMESPACE::GetLane(hwy::HWY_NAMESPACE::MinOfLanes(d, v));
+#endif
+}
+
 /// The smallest lane of v; `index` = the first lane that holds it.
-template <class V = MinVecU16>
-HWY_INLINE int FirstMinLane(V v, int& index) {
+template <class D, class V>
+HWY_INLINE int FirstMinLane(D d, V v, int& index) {
   namespace hn = hwy::HWY_NAMESPACE;
 #if HWY_ARCH_X86 && HWY_TARGET <= HWY_SSE4
-  if constexpr (sizeof(v.raw) == 32) {
+  (void)d;
+  if constexpr (sizeof(v.raw) == 64) {
+    const int m = MinLane(v);
+    index = static_cast<int>(hn::FindFirstTrue(hn::DFromV<V>(), hn::Eq(v, hn::Set(hn::DFromV<V>(), static_cast<std::uint16_t>(m)))));
+    return m;
+  } else if constexpr (sizeof(v.raw) == 32) {
     const std::uint32_t lo = MinPos8(_mm256_castsi256_si128(v.raw));
     const std::uint32_t hi = MinPos8(_mm256_extracti128_si256(v.raw, 1));
     // Ties go to the lower half: its lanes come first.
@@ -62,7 +82,6 @@ HWY_INLINE int FirstMinLane(V v, int& index) {
     return static_cast<int>(r & 0xFFFF);
   }
 #else
-  const MinTagU16 d;
   const auto m = hn::MinOfLanes(d, v);
   index = static_cast<int>(hn::FindFirstTrue(d, hn::Eq(v, m)));
   return hn::GetLane(m);

@@ -26,6 +26,8 @@ namespace mctstereo::detail::cpu::HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
 using DU16 = hn::CappedTag<std::uint16_t, 16>;
+// A slot of 32 entries is one AVX-512 vector (as in the path aggregation).
+using DU16Wide = hn::CappedTag<std::uint16_t, 32>;
 
 // Pixels x, x + kRightPhases, ... are visited one after the other: neighbouring left pixels
 // update overlapping runs of right pixels, and a vector load that overlaps a store still in
@@ -110,9 +112,10 @@ void SelectRightRow(const SgmVolume& v, const SgmSelectConfig& config, int y, st
 
 // The left winner of one pixel. Out-of-band entries are kSgmInf, above every in-band sum, so the
 // minimum over the whole slot is the minimum over the band.
+template <class D>
 HWY_INLINE std::int16_t SelectLeft(const std::uint16_t* sum, int lo, int count, int stride,
                                    const SgmSelectConfig& config, std::uint8_t* margin) {
-  const DU16 d;
+  const D d;
   const int n = static_cast<int>(hn::Lanes(d));
   if (count == 0) {
     if (margin) *margin = 0;
@@ -120,11 +123,11 @@ HWY_INLINE std::int16_t SelectLeft(const std::uint16_t* sum, int lo, int count, 
   }
   int best = 0, best_sum;
   if (stride == n) {
-    best_sum = FirstMinLane(hn::LoadU(d, sum), best);
+    best_sum = FirstMinLane(d, hn::LoadU(d, sum), best);
   } else {
     auto vmin = hn::LoadU(d, sum);
     for (int k = n; k < stride; k += n) vmin = hn::Min(vmin, hn::LoadU(d, sum + k));
-    best_sum = MinLane(vmin);
+    best_sum = MinLaneOf(d, vmin);
     const auto all_min = hn::Set(d, static_cast<std::uint16_t>(best_sum));
     for (int k = 0; k < stride; k += n) {
       const intptr_t i = hn::FindFirstTrue(d, hn::Eq(hn::LoadU(d, sum + k), all_min));
@@ -143,7 +146,7 @@ HWY_INLINE std::int16_t SelectLeft(const std::uint16_t* sum, int lo, int count, 
     const auto near = hn::Not(hn::Lt(two, rel));  // rel <= 2 (unsigned)
     vsec = hn::Min(vsec, hn::IfThenElse(near, inf, hn::LoadU(d, sum + k)));
   }
-  const int sec_raw = MinLane(vsec);
+  const int sec_raw = MinLaneOf(d, vsec);
   const int second = sec_raw == kSgmInf ? INT_MAX : sec_raw;
   const int cm1 = best > 0 ? sum[best - 1] : -1;
   const int cp1 = best + 1 < count ? sum[best + 1] : -1;
@@ -155,6 +158,8 @@ void SgmSelect(const SgmVolume& v, const SgmSelectConfig& config, SgmScratch& sc
                Plane<std::int16_t>* right, Plane<std::uint8_t>* margin) {
   const int w = v.width, h = v.height;
   if (t_pool && t_pool->size() > scratch.threads) std::abort();  // a scratch slice per thread
+  const int lanes_wide = static_cast<int>(hn::Lanes(DU16Wide()));
+  const bool wide = lanes_wide > static_cast<int>(hn::Lanes(DU16())) && v.stride % lanes_wide == 0;
   parallel_for(
       h, 4,
       [&](int y0, int y1) {
@@ -169,9 +174,14 @@ void SgmSelect(const SgmVolume& v, const SgmSelectConfig& config, SgmScratch& sc
           const std::int16_t* count = v.count.row(y);
           const std::uint16_t* sum = v.sum_at(0, y);
           const int stride = v.stride;
-          for (int x = 0; x < w; ++x)
-            out[x] = SelectLeft(sum + static_cast<std::size_t>(x) * stride, lo[x], count[x], stride, config,
-                                m ? m + x : nullptr);
+          if (wide)
+            for (int x = 0; x < w; ++x)
+              out[x] = SelectLeft<DU16Wide>(sum + static_cast<std::size_t>(x) * stride, lo[x], count[x], stride,
+                                            config, m ? m + x : nullptr);
+          else
+            for (int x = 0; x < w; ++x)
+              out[x] = SelectLeft<DU16>(sum + static_cast<std::size_t>(x) * stride, lo[x], count[x], stride, config,
+                                        m ? m + x : nullptr);
           if (right) SelectRightRow(v, config, y, rows, right->row(y));
         }
       },

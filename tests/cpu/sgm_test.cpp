@@ -252,11 +252,14 @@ std::vector<SgmCase> sgm_cases() {
   cases.push_back({33, 1, -3, 20, 0, 5, 24, 5, 7, 4, 8, false, false, 0});
   cases.push_back({17, 2, 0, 9, 0, 5, 10, 1, 9, 8, 8, false, true, 5});
   cases.push_back({1, 5, 0, 3, 0, 5, 4, 3, 5, 4, 8, false, true, 0});
+  // Slots of 64 entries: two vectors of 32 lanes where the target has them.
+  cases.push_back({83, 7, -11, 52, 0, 5, 64, 3, 5, 8, 8, false, true, 10});
   // Finer levels: bands around a prior, cut at max_band, at the range ends.
   cases.push_back({97, 31, 0, 63, 3, 5, 32, 3, 5, 4, 8, true, true, 10});
   cases.push_back({64, 17, 0, 63, 2, 3, 8, 3, 5, 8, 8, true, true, 0});
   cases.push_back({45, 13, -20, 30, 6, 5, 12, 3, 9, 4, 0, true, true, 0});
   cases.push_back({129, 2, 0, 40, 3, 5, 16, 5, 5, 4, 8, true, false, 10});
+  cases.push_back({75, 19, -4, 90, 9, 5, 48, 3, 5, 4, 8, true, false, 0});
   return cases;
 }
 
