@@ -59,15 +59,16 @@ HWY_INLINE int MinLaneOf(D d, V v) {
 #endif
 }
 
-/// The smallest lane of v; `index` = the first lane that holds it.
+/// The smallest of the lanes of d in v; `index` = the first lane that holds it.
 template <class D, class V>
 HWY_INLINE int FirstMinLane(D d, V v, int& index) {
   namespace hn = hwy::HWY_NAMESPACE;
 #if HWY_ARCH_X86 && HWY_TARGET <= HWY_SSE4
   (void)d;
   if constexpr (sizeof(v.raw) == 64) {
+    const hn::DFromV<V> full;  // d may be a tag of the same lanes; the raw width decides here
     const int m = MinLane(v);
-    index = static_cast<int>(hn::FindFirstTrue(hn::DFromV<V>(), hn::Eq(v, hn::Set(hn::DFromV<V>(), static_cast<std::uint16_t>(m)))));
+    index = static_cast<int>(hn::FindFirstTrue(full, hn::Eq(v, hn::Set(full, static_cast<std::uint16_t>(m)))));
     return m;
   } else if constexpr (sizeof(v.raw) == 32) {
     const std::uint32_t lo = MinPos8(_mm256_castsi256_si128(v.raw));

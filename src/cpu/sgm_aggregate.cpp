@@ -41,8 +41,9 @@ inline int path_buffer_entries(int stride) { return stride + 2 * path_buffer_pad
 // Lines a horizontal path (rows) and a vertical path (columns) walk together, at most. Columns
 // take more: each row of a column block is a separate run of memory, and longer runs stream
 // better. Rows: 8 interleaved lines hide the latency of a step's minimum as well as 16 did, in
-// fewer streams of memory at once (quality at 640 x 480: 17.9 against 18.5 ms with 2 threads). A block is one thread's work from start to end, so small levels take smaller blocks
-// (block_lines()) to give every thread several.
+// fewer streams of memory at once (quality at 640 x 480 with 2 threads: 17.8-18.0 against
+// 18.4-18.6 ms; 4 lines: 18.6-18.8). A block is one thread's work from start to end, so small
+// levels take smaller blocks (block_lines()) to give every thread several.
 inline constexpr int kRowBlock = 8;
 inline constexpr int kColumnBlock = 32;
 inline constexpr int kMaxBlock = std::max(kRowBlock, kColumnBlock);
@@ -290,7 +291,8 @@ void SgmAggregate(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, 
   int p2_of_diff[256];
   for (int diff = 0; diff < 256; ++diff) p2_of_diff[diff] = sgm_p2_at(config, diff, 0);
   const PathConstants c{v.stride, path_buffer_pad(v.stride), static_cast<std::uint16_t>(config.p1), p2_of_diff};
-  // Slots of one and two vectors (16 and 32 candidates on AVX2 and AVX-512) unroll.
+  // Slots of one vector (16 candidates; 32 on AVX-512 and wide SVE) and of two 16-lane vectors
+  // (32 candidates on AVX2) unroll.
   const int wide = static_cast<int>(hn::Lanes(DU16Wide()));
   if (wide > static_cast<int>(hn::Lanes(DU16())) && v.stride % wide == 0) {
     if (v.stride == wide) AggregateAll<DU16Wide, 1>(gray, config, c, scratch, v);
