@@ -24,6 +24,17 @@ namespace mctstereo::detail::cpu::HWY_NAMESPACE {
 // Vectors of at most 16 u16 lanes.
 using MinTagU16 = hwy::HWY_NAMESPACE::CappedTag<std::uint16_t, 16>;
 using MinVecU16 = hwy::HWY_NAMESPACE::Vec<MinTagU16>;
+// The wide tag of the SGM stages: slots of 32 entries and more take vectors of up to 32 lanes,
+// one AVX-512 (or 512-bit SVE) vector per 32 candidates, half the instructions of two 16-lane
+// vectors for the same values.
+using WideTagU16 = hwy::HWY_NAMESPACE::CappedTag<std::uint16_t, 32>;
+
+/// Whether slots of `stride` entries go by WideTagU16: the target has more lanes there than in
+/// MinTagU16, and the stride is a multiple of them.
+HWY_INLINE bool WideSlots(int stride) {
+  const int wide = static_cast<int>(hwy::HWY_NAMESPACE::Lanes(WideTagU16()));
+  return wide > static_cast<int>(hwy::HWY_NAMESPACE::Lanes(MinTagU16())) && stride % wide == 0;
+}
 
 #if HWY_ARCH_X86 && HWY_TARGET <= HWY_SSE4
 // PHMINPOSUW of 8 lanes: bits 0..15 the minimum, bits 16..18 its first index.

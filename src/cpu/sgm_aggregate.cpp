@@ -96,10 +96,8 @@ namespace mctstereo::detail::cpu::HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
 // Slots of 16 entries take vectors of 16 lanes (one on AVX2 and AVX-512, two on 128-bit targets);
-// slots of 32 and more take vectors of up to 32 lanes, one AVX-512 vector per 32 candidates: half
-// the instructions per step of two 256-bit vectors, for the same values.
-using DU16 = hn::CappedTag<std::uint16_t, 16>;
-using DU16Wide = hn::CappedTag<std::uint16_t, 32>;
+// wider slots WideTagU16 where WideSlots() says so (cpu/min_lanes-inl.h).
+using DU16 = MinTagU16;
 
 // The state a path carries from one pixel to the next on its line.
 struct PathState {
@@ -293,10 +291,9 @@ void SgmAggregate(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, 
   const PathConstants c{v.stride, path_buffer_pad(v.stride), static_cast<std::uint16_t>(config.p1), p2_of_diff};
   // Slots of one vector (16 candidates; 32 on AVX-512 and wide SVE) and of two 16-lane vectors
   // (32 candidates on AVX2) unroll.
-  const int wide = static_cast<int>(hn::Lanes(DU16Wide()));
-  if (wide > static_cast<int>(hn::Lanes(DU16())) && v.stride % wide == 0) {
-    if (v.stride == wide) AggregateAll<DU16Wide, 1>(gray, config, c, scratch, v);
-    else AggregateAll<DU16Wide, 0>(gray, config, c, scratch, v);
+  if (WideSlots(v.stride)) {
+    if (v.stride == static_cast<int>(hn::Lanes(WideTagU16()))) AggregateAll<WideTagU16, 1>(gray, config, c, scratch, v);
+    else AggregateAll<WideTagU16, 0>(gray, config, c, scratch, v);
     return;
   }
   const int vecs = v.stride / static_cast<int>(hn::Lanes(DU16()));

@@ -112,6 +112,7 @@ void RowCosts(const std::uint32_t* const* left_rows, const std::uint32_t* const*
       mirror[j * kWords + word] = mirror_rows[j * 3 + word];
     }
   const auto inf = hn::Set(di32, kSgmInf);
+  const auto inf16 = hn::DemoteTo(du16, inf);
   const auto iota = hn::Iota(di32, 0);
   for (int x = 0; x < w; ++x, out += stride) {
     const int lo = lo_row[x], count = count_row[x];
@@ -139,7 +140,7 @@ void RowCosts(const std::uint32_t* const* left_rows, const std::uint32_t* const*
       const auto in_band = hn::Lt(hn::Add(iota, hn::Set(di32, k0)), hn::Set(di32, count));
       hn::StoreU(hn::DemoteTo(du16, hn::IfThenElse(in_band, hn::BitCast(di32, acc), inf)), du16, out + k0);
     }
-    for (; k0 < stride; k0 += n) hn::StoreU(hn::DemoteTo(du16, inf), du16, out + k0);
+    for (; k0 < stride; k0 += n) hn::StoreU(inf16, du16, out + k0);
   }
 }
 

@@ -25,9 +25,7 @@ HWY_BEFORE_NAMESPACE();
 namespace mctstereo::detail::cpu::HWY_NAMESPACE {
 namespace hn = hwy::HWY_NAMESPACE;
 
-using DU16 = hn::CappedTag<std::uint16_t, 16>;
-// A slot of 32 entries is one AVX-512 vector (as in the path aggregation).
-using DU16Wide = hn::CappedTag<std::uint16_t, 32>;
+using DU16 = MinTagU16;
 
 // Pixels x, x + kRightPhases, ... are visited one after the other: neighbouring left pixels
 // update overlapping runs of right pixels, and a vector load that overlaps a store still in
@@ -154,34 +152,31 @@ HWY_INLINE std::int16_t SelectLeft(const std::uint16_t* sum, int lo, int count, 
   return sgm_winner_q4(lo + best, best_sum, second, cm1, cp1, config);
 }
 
+// The left winners (and margins) of row y, slots read by vectors of tag D.
+template <class D>
+void SelectLeftRow(const SgmVolume& v, const SgmSelectConfig& config, int y, std::int16_t* out, std::uint8_t* m) {
+  // Row pointers and the stride in locals: the margin stores go through a byte pointer, which
+  // may alias anything, and would make the compiler reload them at every pixel.
+  const std::int16_t* lo = v.lo.row(y);
+  const std::int16_t* count = v.count.row(y);
+  const std::uint16_t* sum = v.sum_at(0, y);
+  const int w = v.width, stride = v.stride;
+  for (int x = 0; x < w; ++x)
+    out[x] = SelectLeft<D>(sum + static_cast<std::size_t>(x) * stride, lo[x], count[x], stride, config,
+                           m ? m + x : nullptr);
+}
+
 void SgmSelect(const SgmVolume& v, const SgmSelectConfig& config, SgmScratch& scratch, Plane<std::int16_t>& left,
                Plane<std::int16_t>* right, Plane<std::uint8_t>* margin) {
-  const int w = v.width, h = v.height;
   if (t_pool && t_pool->size() > scratch.threads) std::abort();  // a scratch slice per thread
-  const int lanes_wide = static_cast<int>(hn::Lanes(DU16Wide()));
-  const bool wide = lanes_wide > static_cast<int>(hn::Lanes(DU16())) && v.stride % lanes_wide == 0;
+  const auto select_left = WideSlots(v.stride) ? &SelectLeftRow<WideTagU16> : &SelectLeftRow<DU16>;
   parallel_for(
-      h, 4,
+      v.height, 4,
       [&](int y0, int y1) {
         auto* rows =
             reinterpret_cast<std::uint16_t*>(scratch.data.get() + thread_slot() * scratch.bytes_per_thread);
         for (int y = y0; y < y1; ++y) {
-          // Row pointers and the stride in locals: the margin stores go through a byte pointer, which
-          // may alias anything, and would make the compiler reload them at every pixel.
-          std::int16_t* out = left.row(y);
-          std::uint8_t* m = margin ? margin->row(y) : nullptr;
-          const std::int16_t* lo = v.lo.row(y);
-          const std::int16_t* count = v.count.row(y);
-          const std::uint16_t* sum = v.sum_at(0, y);
-          const int stride = v.stride;
-          if (wide)
-            for (int x = 0; x < w; ++x)
-              out[x] = SelectLeft<DU16Wide>(sum + static_cast<std::size_t>(x) * stride, lo[x], count[x], stride,
-                                            config, m ? m + x : nullptr);
-          else
-            for (int x = 0; x < w; ++x)
-              out[x] = SelectLeft<DU16>(sum + static_cast<std::size_t>(x) * stride, lo[x], count[x], stride, config,
-                                        m ? m + x : nullptr);
+          select_left(v, config, y, left.row(y), margin ? margin->row(y) : nullptr);
           if (right) SelectRightRow(v, config, y, rows, right->row(y));
         }
       },
