@@ -1001,6 +1001,12 @@ SceneSummary read_scene(const fs::path& folder) {
   return {s.scene.name, s.left.cols, s.left.rows, s.min_disparity, s.num_disparities, s.mask_source};
 }
 
+ScenePair read_scene_pair(const fs::path& folder) {
+  const SceneData s = load_scene(folder);
+  const cv::Mat& nonocc = s.masks[kNonocc].empty() ? s.masks[kAll] : s.masks[kNonocc];
+  return {s.scene.name, s.left, s.right, s.ground_truth, nonocc, s.min_disparity, s.num_disparities};
+}
+
 std::vector<fs::path> find_scene_folders(const fs::path& data) {
   std::error_code ec;
   if (!fs::exists(data, ec)) throw RuntimeError("data folder " + in_quotes(data) + " does not exist");

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <opencv2/core.hpp>
 
 #include <filesystem>
 #include <map>
@@ -29,6 +30,18 @@ struct SceneSummary {
 /// 8- or 16-bit image with gt_scale), the masks or gt_right, and the disparity range. RuntimeError
 /// naming the file and the problem otherwise.
 SceneSummary read_scene(const std::filesystem::path& folder);
+
+/// A scene's pair and the truth to score its left map against, as eval reads them.
+struct ScenePair {
+  std::string name;
+  cv::Mat left, right;   ///< 8-bit gray or BGR, as the matcher takes them
+  cv::Mat ground_truth;  ///< CV_32F pixels, NaN where unknown
+  cv::Mat nonocc;        ///< CV_8U, 255 = scored as non-occluded (the scene's nonocc mask, else its known pixels)
+  int min_disparity = 0, num_disparities = 0;
+};
+
+/// read_scene() with the pixels. RuntimeError as read_scene().
+ScenePair read_scene_pair(const std::filesystem::path& folder);
 
 /// Folders holding a scene.txt: `data` itself and every folder below it, sorted by path.
 /// RuntimeError when `data` is not a folder.

@@ -65,11 +65,16 @@ Outputs (per-frame patterns take the frame number, e.g. 'out/disp_%05d.png'):
 Calibration (--calib FILE, or --focal and --baseline): as match. A file of the raw cameras (K1 D1
 K2 D2 without "rectified: 1") has every frame rectified before matching, with maps computed once;
 the outputs are then in the rectified left frame.
+--temporal: each frame's finer levels also search around the previous frame's maps; where a pixel
+is still (gray change <= --temporal-threshold) and those maps agree with the coarser level, the
+search narrows to both (fewer candidates on a still scene); where the scene moves or cuts it stays
+as without them (docs/PIPELINE.md, "Temporal prior"; cpu backend).
 Capture, matching and writing run on their own threads. The summary line (stdout) gives the frames,
 the latency from a frame's capture to its outputs being written (mean, 95th percentile), the
-median matching time and the frame rate. Ctrl-C (SIGINT) or SIGTERM stops after the frames in
-flight are written, with exit status 0; a second Ctrl-C more than 1 s later ends at once (status
-130), one within 1 s is taken as the same request.
+median matching time, the frame rate and the last frame's candidates per pixel at the finest
+level. Ctrl-C (SIGINT) or SIGTERM stops after the frames in flight are written, with exit status
+0; a second Ctrl-C more than 1 s later ends at once (status 130), one within 1 s is taken as the
+same request.
 )";
 
 // A fixed-capacity FIFO between two threads. push() waits while full, pop() while empty; after
@@ -430,6 +435,18 @@ StreamCommand::StreamCommand(CLI::App& parent)
   app.add_flag("--show", show_, "show the preview and the frame rate in a window when there is a display")
       ->group(output_group);
   app.add_flag("--quiet", quiet_, "no progress on stderr")->group(output_group);
+  const char* temporal_group = "Temporal prior";
+  app.add_flag("--temporal", temporal_,
+               "the finer levels also search around the previous frame's map: fewer candidates where the scene "
+               "holds still, the same search where it moves or cuts (cpu backend)")
+      ->group(temporal_group);
+  app.add_option("--temporal-radius", temporal_radius_,
+                 "radius of the temporal prior's narrowed bands, pixels; [0, 16] (default 1)")
+      ->group(temporal_group);
+  app.add_option("--temporal-threshold", temporal_threshold_,
+                 "a pixel whose gray value changed by more than this since the previous frame has moved and takes "
+                 "no temporal prior; above the cameras' noise; [0, 255] (default 12)")
+      ->group(temporal_group);
   calibration_flags_.add_to(app);
   run_flags_.add_to(app);
 }
@@ -789,6 +806,16 @@ class FramePipeline {
   StreamTotals totals_;
 };
 
+// The candidates per pixel of the last frame's finest level (host backends), and with the
+// temporal prior whether that frame used it.
+std::string finest_candidates(const Matcher& matcher, const StereoParams& params) {
+  const std::vector<LevelWork> work = matcher.level_work();
+  if (work.empty()) return {};
+  std::string text = "; last frame: " + fixed(work.front().candidates, 2) + " candidates per pixel at the finest level";
+  if (params.temporal) text += matcher.used_temporal_prior() ? " (temporal prior)" : " (temporal prior not used)";
+  return text;
+}
+
 // The summary line on stdout.
 void print_summary(const StreamSettings& s, const OutputPlan& plan, const StreamGeometry& geometry,
                    const StreamTotals& totals, const StereoSource& source, const Matcher& matcher,
@@ -819,13 +846,19 @@ void print_summary(const StreamSettings& s, const OutputPlan& plan, const Stream
             << fixed(percentile(totals.latency_ms.values(), 95.0), 2) << "; matching ms: median "
             << fixed(median(totals.matching_ms.values()), 2) << "; "
             << fixed(totals.seconds > 0.0 ? frames / totals.seconds : 0.0, 1) << " fps; " << totals.end_reason << wrote
-            << "\n";
+            << finest_candidates(matcher, params) << "\n";
 }
 
 }  // namespace
 
 void StreamCommand::run() const {
-  const StereoParams requested = parameters_.resolve();
+  StereoParams requested = parameters_.resolve();
+  if ((temporal_radius_ || temporal_threshold_) && !temporal_)
+    throw UsageError(std::string(temporal_radius_ ? "--temporal-radius" : "--temporal-threshold") +
+                     " applies to --temporal, which was not given");
+  requested.temporal = temporal_;
+  if (temporal_radius_) requested.temporal_radius = *temporal_radius_;
+  if (temporal_threshold_) requested.temporal_threshold = *temporal_threshold_;
   check_parameters(requested);
   (void)run_flags_.parsed_backend();
   const StreamSettings settings{disparity_, format_, depth_, preview_video_, max_depth_,

@@ -3,6 +3,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <optional>
 #include <string>
 
 #include "calibration.hpp"
@@ -33,6 +34,8 @@ class StreamCommand {
   std::string disparity_, format_, depth_, preview_video_;
   double max_depth_ = 0.0;  // 0 = no cut
   bool show_ = false, quiet_ = false;
+  bool temporal_ = false;
+  std::optional<int> temporal_radius_, temporal_threshold_;
 };
 
 }  // namespace mctstereo::app

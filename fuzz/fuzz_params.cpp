@@ -4,7 +4,8 @@
 // std::invalid_argument with validate()'s message; valid ones that also fit the frame size
 // (validate(width, height)) are matched on a tiny frame (1..32 x 1..16 pixels, gray or BGR, from the
 // input's remaining bytes) by the reference and the cpu backend, whose maps must be equal bit for
-// bit and hold only disparities within the range searched (or the invalid value).
+// bit and hold only disparities within the range searched (or the invalid value); with the temporal
+// prior on, a second frame (the views swapped) is matched around the first and compared too.
 #include <fuzzer/FuzzedDataProvider.h>
 
 #include <cstdint>
@@ -70,6 +71,9 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   p.wm_step = field(in, 1, 15);
   p.wm_sigma = field(in, 1, 255);
   p.working_scale = field(in, 1, 4);
+  p.temporal = in.ConsumeBool();
+  p.temporal_radius = field(in, 0, 16);
+  p.temporal_threshold = field(in, 0, 255);
   const int width = in.ConsumeIntegralInRange<int>(1, 32);
   const int height = in.ConsumeIntegralInRange<int>(1, 16);
   const bool colour = in.ConsumeBool();
@@ -108,19 +112,22 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
 
   Matcher reference(width, height, p, Backend::Reference, options);
   Matcher cpu(width, height, p, Backend::Cpu, options);
-  reference.compute(lv, rv);
-  cpu.compute(lv, rv);
-  const MapView<const std::int16_t> a = reference.disparity_q4(), b = cpu.disparity_q4();
-  if (a.width != width || a.height != height || b.width != width || b.height != height) fail("map sizes");
-  const std::int16_t invalid = cpu.invalid_q4();
-  for (int y = 0; y < height; ++y)
-    for (int x = 0; x < width; ++x) {
-      const std::int16_t va = a.data[y * a.stride + x], vb = b.data[y * b.stride + x];
-      if (va != vb)
-        fail("reference and cpu differ at (" + std::to_string(x) + ", " + std::to_string(y) + "): " +
-             std::to_string(va) + " vs " + std::to_string(vb));
-      if (vb != invalid && (vb < kDisparityScale * p.min_disparity || vb > kDisparityScale * p.max_disparity()))
-        fail("disparity " + std::to_string(vb) + " / 16 outside the range searched");
-    }
+  // With the temporal prior, a second frame (the views swapped) is matched around the first.
+  for (int frame = 0; frame < (p.temporal ? 2 : 1); ++frame) {
+    reference.compute(frame == 0 ? lv : rv, frame == 0 ? rv : lv);
+    cpu.compute(frame == 0 ? lv : rv, frame == 0 ? rv : lv);
+    const MapView<const std::int16_t> a = reference.disparity_q4(), b = cpu.disparity_q4();
+    if (a.width != width || a.height != height || b.width != width || b.height != height) fail("map sizes");
+    const std::int16_t invalid = cpu.invalid_q4();
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x) {
+        const std::int16_t va = a.data[y * a.stride + x], vb = b.data[y * b.stride + x];
+        if (va != vb)
+          fail("frame " + std::to_string(frame) + ": reference and cpu differ at (" + std::to_string(x) + ", " +
+               std::to_string(y) + "): " + std::to_string(va) + " vs " + std::to_string(vb));
+        if (vb != invalid && (vb < kDisparityScale * p.min_disparity || vb > kDisparityScale * p.max_disparity()))
+          fail("disparity " + std::to_string(vb) + " / 16 outside the range searched");
+      }
+  }
   return 0;
 }

@@ -358,6 +358,9 @@ PYBIND11_MODULE(_mctstereo, m) {
   MCTSTEREO_FIELD(wm_step, "Weighted median sample step, [1, wm_radius] pixels");
   MCTSTEREO_FIELD(wm_sigma, "Weighted median colour scale of the weights, [1, 255] levels");
   MCTSTEREO_FIELD(working_scale, "Working scale: 1, 2 or 4");
+  MCTSTEREO_FIELD(temporal, "Temporal prior: the finer levels also search around the previous frame's map");
+  MCTSTEREO_FIELD(temporal_radius, "Temporal prior: radius of its narrowed bands, [0, 16] pixels");
+  MCTSTEREO_FIELD(temporal_threshold, "Temporal prior: largest gray change of a still pixel, [0, 255]");
 #undef MCTSTEREO_FIELD
   m.attr("_PARAM_FIELDS") = *fields;
   // The fields as a dict, enums by their program names: to_dict() and pickling's state.
@@ -517,6 +520,17 @@ PYBIND11_MODULE(_mctstereo, m) {
             return last_map<std::int16_t>(self, [](Matcher& m) { return m.right_disparity_q4(); });
           },
           "The last frame's right-view disparity (Q4), or None unless compute_right=True")
+      .def(
+          "reset_temporal", [](PyMatcher& self) { self.locked([](Matcher& m) { m.reset_temporal(); }); },
+          "With params.temporal: the next compute() matches its frame alone (a cut in the sequence)")
+      .def_property_readonly(
+          "used_temporal_prior",
+          [](PyMatcher& self) {
+            bool used = false;
+            self.locked([&](Matcher& m) { used = m.used_temporal_prior(); });
+            return used;
+          },
+          "Whether the last compute() used the previous frame's maps (params.temporal)")
       .def_property_readonly("width", [](const PyMatcher& s) { return s.matcher->width(); })
       .def_property_readonly("height", [](const PyMatcher& s) { return s.matcher->height(); })
       .def_property_readonly("params", [](const PyMatcher& s) { return s.matcher->params(); },

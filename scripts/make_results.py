@@ -55,9 +55,10 @@ BENCH_BACKENDS = "bench_backends.json"
 BENCH_OPENCL = "bench_opencl.json"
 BENCH_LOADED = "bench_loaded.json"
 BENCH_SCALING = "bench_scaling.json"
+SEQUENCE_TEMPORAL = "sequence_temporal.json"
 # The step of scripts/measure_results.sh that writes each file, for the error message.
 INPUT_STEPS = {EVAL_2003: 1, EVAL_2005: 2, EVAL_RADIOMETRIC: 3, BENCH_HEADLINE: 4, BENCH_THESIS: 5, BENCH_BACKENDS: 6,
-               BENCH_OPENCL: 7, BENCH_LOADED: 8, BENCH_SCALING: 9}
+               BENCH_OPENCL: 7, BENCH_LOADED: 8, BENCH_SCALING: 9, SEQUENCE_TEMPORAL: 10}
 
 THESIS_VARIANTS = [("mct-full", "MCT-full"), ("mr-mct-full", "MR-MCT-full"), ("mr-mct-5x5", "MR-MCT-5x5")]
 SCENE_ORDER = ["tsukuba", "venus", "teddy", "cones", "aloe", "art"]
@@ -1372,6 +1373,61 @@ def speed_loaded(report, bench, file_name, load_threads):
                       f"{t2} threads speed-up", f"x BM ({t2} threads)"], rows, ["---", "---:", "---"] + ["---:"] * 4))
 
 
+def sequence_settings(doc):
+    """The settings of the sequence benchmark as header() reads them."""
+    s = doc.obj("settings")
+    keys = ["cpu_model", "cores_online", "simd_target", "threads", "compiler", "build_type", "opencv_version",
+            "mctstereo_version", "date"]
+    return {k: s[k].value for k in keys}
+
+
+def streams_temporal(report, doc, file_name):
+    settings = doc.obj("settings")
+    rows = doc.array("rows")
+    frames = settings.whole("frames")
+    report.add("### Streams: the temporal prior")
+    report.add(f"`stream --temporal` (StereoParams::temporal, docs/PIPELINE.md) on sequences made from each scene: "
+               f"a still camera (the pair with fresh Gaussian noise of sigma {settings.num('noise_sigma'):g} on every "
+               f"frame) and pans (a window {settings.whole('pan_window_narrower_by')} px narrower than the scene moving "
+               f"1 or 12 px a frame, with noise), {frames} frames each, matched frame by frame alone and with the "
+               "prior. Figures are means over every frame but the first: bad = percent of the non-occluded pixels "
+               "more than 1 px off or invalid; candidates = disparities examined per pixel at the finest level; ms = "
+               "the median frame time (one run: compare within a row).")
+    report.add(code(settings.text("command_line").replace(REPO_ROOT + "/", "")))
+    report.add(f"Machine: {settings.text('cpu_model')}, {settings.whole('cores_online')} cores, SIMD target "
+               f"{settings.text('simd_target')}, {settings.whole('threads')} threads; {settings.text('compiler')}, "
+               f"mctstereo {settings.text('mctstereo_version')}; {settings.text('date')} "
+               f"([{file_name}]({{results}}/{file_name})).")
+    groups = {}
+    for r in rows:
+        groups.setdefault((r.text("preset"), r.text("sequence")), []).append(r)
+    summary = []
+    for (preset_name, sequence), members in groups.items():
+        def mean(mode, key):
+            return sum(m.obj(mode).num(key) for m in members) / len(members)
+        summary.append([f"`{preset_name}`", sequence, len(members), f"{mean('alone', 'bad_percent'):.2f}",
+                        f"{mean('temporal', 'bad_percent'):.2f}", f"{mean('alone', 'candidates'):.2f}",
+                        f"{mean('temporal', 'candidates'):.2f}", f"{mean('alone', 'median_ms'):.2f}",
+                        f"{mean('temporal', 'median_ms'):.2f}"])
+    report.add("Mean over the scenes:")
+    report.add(table(["preset", "sequence", "scenes", "bad % alone", "bad % temporal", "candidates alone",
+                      "candidates temporal", "ms alone", "ms temporal"], summary, ["---", "---"] + ["---:"] * 7))
+    detail = []
+    for r in rows:
+        a, t = r.obj("alone"), r.obj("temporal")
+        detail.append([r.text("scene"), f"`{r.text('preset')}`", r.text("sequence"), f"{a.num('bad_percent'):.2f}",
+                       f"{t.num('bad_percent'):.2f}", f"{a.num('candidates'):.2f}", f"{t.num('candidates'):.2f}",
+                       f"{a.num('median_ms'):.2f}", f"{t.num('median_ms'):.2f}"])
+        worse = t.num("bad_percent") - a.num("bad_percent")
+        if worse > 0.1:
+            report.losses.append(("Streams", f"`{r.text('preset')}` with the temporal prior on {r.text('scene')}, "
+                                             f"{r.text('sequence')}: {t.num('bad_percent'):.2f} % bad against "
+                                             f"{a.num('bad_percent'):.2f} % alone"))
+    report.add("Per scene:")
+    report.add(table(["scene", "preset", "sequence", "bad % alone", "bad % temporal", "candidates alone",
+                      "candidates temporal", "ms alone", "ms temporal"], detail, ["---"] * 3 + ["---:"] * 6))
+
+
 # The box kernel's vector ALU work per pixel-disparity pair, as `bench` models it (apps/bench.cpp,
 # box_alu_bound): 15.5 vector operations per vector of int16 lanes of one candidate.
 def box_alu_bound(target):
@@ -1613,11 +1669,13 @@ def build(results_dir, images_dir, output, previews_dir):
     loaded = BenchRun(docs[BENCH_LOADED])
     loaded_threads = loaded.load_threads
     scaling = BenchRun(docs[BENCH_SCALING])
+    sequence = docs[SEQUENCE_TEMPORAL]
 
     report = Report(results_dir, images_dir, output, previews_dir)
     runs = [(EVAL_2003, ev2003.settings), (EVAL_2005, ev2005.settings), (EVAL_RADIOMETRIC, radio.settings),
             (BENCH_HEADLINE, headline.settings), (BENCH_THESIS, thesis.settings), (BENCH_BACKENDS, backends.settings),
-            (BENCH_OPENCL, opencl.settings), (BENCH_LOADED, loaded.settings), (BENCH_SCALING, scaling.settings)]
+            (BENCH_OPENCL, opencl.settings), (BENCH_LOADED, loaded.settings), (BENCH_SCALING, scaling.settings),
+            (SEQUENCE_TEMPORAL, sequence_settings(sequence))]
     header(report, runs)
     quality_2003(report, ev2003)
     quality_2005(report, ev2005)
@@ -1629,6 +1687,7 @@ def build(results_dir, images_dir, output, previews_dir):
     speed_backends(report, backends, BENCH_BACKENDS)
     speed_opencl(report, opencl, BENCH_OPENCL)
     speed_loaded(report, loaded, BENCH_LOADED, loaded_threads)
+    streams_temporal(report, sequence, SEQUENCE_TEMPORAL)
     memory_section(report, thesis, BENCH_THESIS)
     previews_section(report, [(ev2003, "middlebury2003", "Middlebury 2003"),
                               (ev2005, "middlebury2005", "Middlebury 2005/2006")])

@@ -86,4 +86,19 @@ run "$binary" bench --data data --sizes 640x480 --num-disparities 64 --threads 1
 run "$binary" bench --data data --sizes 640x480,3840x2160 --fit tile --num-disparities 64,256 --threads 1,2 \
   --presets realtime --json "$results/bench_scaling.json"
 
+# 10: streams: the temporal prior on still and panning sequences made from the Middlebury scenes
+# (the bundled Tsukuba pair without ../shared/data).
+sequence_binary=$(dirname "$(dirname "$binary")")/bench/mctstereo_sequence_benchmark
+if [[ ! -x $sequence_binary ]]; then
+  echo "measure_results.sh: '$sequence_binary' is not an executable: build the benchmarks" >&2
+  exit 2
+fi
+if [[ -d $data/middlebury2003 ]]; then
+  sequence_scenes=("$data"/middlebury2003/* "$data"/middlebury2005/*)
+else
+  sequence_scenes=(data/tsukuba)
+fi
+run "$sequence_binary" "${sequence_scenes[@]}" --presets balanced,quality --frames 30 --pan-speeds 1,12 \
+  --threads 2 --json "$results/sequence_temporal.json"
+
 run "$python" scripts/make_results.py --results "$results" --previews "$previews"

@@ -38,7 +38,13 @@ struct LevelSpec {
   bool right_map = false; ///< the right view's map is made here (both views are matched)
   int sgm_band = 0;       ///< band SGM: most candidates of a pixel (0 without SGM)
   int sgm_stride = 0;     ///< band SGM: entries per pixel slot
+  /// The temporal prior narrows this level's search (StereoParams::temporal; a level with a coarser
+  /// prior whose radius exceeds the temporal radius): it keeps its maps of the previous frame.
+  bool temporal = false;
   int range() const { return dmax - dmin + 1; }
+  /// The views whose maps of the previous frame the temporal prior reads: the left one under SGM
+  /// (the band is the left view's), every matched view with box sums.
+  int temporal_views() const { return !temporal ? 0 : is_sgm ? 1 : right_map ? 2 : 1; }
 };
 
 struct LevelPlan {
@@ -87,6 +93,7 @@ inline LevelPlan plan_levels(const StereoParams& p, int width, int height, bool 
     L.refine = l == 0 || p.refine_all_levels;
     L.coarsest = l + 1 == p.pyramid_levels;
     L.speckle = p.speckle_size >> (2 * L.scale_log2);
+    L.temporal = p.temporal && !L.coarsest && p.temporal_radius < L.radius;
     L.is_sgm = p.sgm_at(l);
     if (L.is_sgm) {
       L.sgm_band = sgm_band_width(p, L.dmin, L.dmax, lw, L.coarsest);

@@ -83,6 +83,9 @@ struct Level : detail::LevelSpec {
   Plane<std::uint8_t> image[2];
   CensusCodes codes[2];
   Plane<std::int16_t> disparity[2], scratch[2];
+  // The temporal prior: this level's maps and images of the previous frame.
+  Plane<std::int16_t> previous[2];
+  Plane<std::uint8_t> previous_image[2];
   detail::SgmVolume sgm;  // band SGM: candidates, costs and sums (storage shared by the levels)
 };
 
@@ -149,6 +152,10 @@ struct Matcher::Impl {
   Plane<float> out_confidence;
   bool confidence_current = false;
   bool has_frame = false;  // compute() has run
+  // The temporal prior: the levels' maps of the last frame can serve the next one (none after
+  // construction and reset_temporal()), and the last frame was matched with them.
+  bool temporal_history = false;
+  bool used_previous = false;
   Plane<std::int16_t> upscaled[2];
   Plane<std::int16_t> out_q4[2];
   Plane<float> out_float;
@@ -161,6 +168,12 @@ struct Matcher::Impl {
     const std::string err = p.validate(w, h);
     if (!err.empty()) throw std::invalid_argument(err);
     if (o.threads < 0) throw std::invalid_argument("threads = " + std::to_string(o.threads) + " must be >= 0");
+    if (p.temporal && backend == Backend::OpenCL)
+      throw std::invalid_argument("temporal: the opencl backend has no temporal prior; use the cpu backend");
+    if (p.temporal && backend == Backend::Auto) {
+      backend = Backend::Cpu;
+      notice = "the temporal prior runs on the cpu backend only: running on the cpu backend";
+    }
     resolve_backend();
     stages = backend == Backend::Reference ? &kReferenceStages : &kCpuStages;
     threads = backend == Backend::Reference ? 1 : (o.threads > 0 ? o.threads : default_threads());
@@ -211,6 +224,10 @@ struct Matcher::Impl {
       for (int v = 0; v < (L.right_map ? 2 : 1); ++v) {
         L.disparity[v].reset(lw, lh);
         if (L.refine) L.scratch[v].reset(lw, lh);
+      }
+      for (int v = 0; v < L.temporal_views(); ++v) {
+        L.previous[v].reset(lw, lh);
+        L.previous_image[v].reset(lw, lh);
       }
       if (L.is_sgm) L.sgm.reset(lw, lh, L.sgm_band, plan.census_words, nullptr, nullptr);
     }
@@ -361,7 +378,7 @@ struct Matcher::Impl {
   // Band SGM at level l: band costs around the coarser left map, paths, winners of both views.
   void match_sgm(int l, const Plane<std::int16_t>* prior) {
     Level& L = levels[l];
-    const detail::SgmBandConfig band{L.dmin, L.dmax, L.radius, params.prior_size, L.sgm.band};
+    const detail::SgmBandConfig band{L.dmin, L.dmax, L.radius, params.prior_size, L.sgm.band, temporal_prior(l, 0)};
     stages->sgm_costs(L.codes[0], L.codes[1], prior, band, L.shd_window, sgm_scratch, L.sgm);
     const detail::SgmPathConfig paths{params.sgm_paths(), params.sgm_p1, params.sgm_p2, params.sgm_p2_k};
     stages->sgm_aggregate(level_image(l, 0), paths, sgm_scratch, L.sgm);
@@ -458,6 +475,38 @@ struct Matcher::Impl {
     run_frame(left, right);
   }
 
+  // The search of view v at box level l: around its own coarser map, and with the temporal prior
+  // around its map of the previous frame too.
+  detail::SearchRanges search_ranges(int l, int v) const {
+    const Level& L = levels[l];
+    const Plane<std::int16_t>* prior = L.coarsest ? nullptr : &levels[l + 1].disparity[v];
+    detail::SearchRanges ranges = detail::SearchRanges::around(prior, L.dmin, L.dmax, L.radius);
+    ranges.temporal = temporal_prior(l, v);
+    return ranges;
+  }
+
+  // The temporal prior of view v at level l: none unless this frame has the last one's maps.
+  detail::TemporalPrior temporal_prior(int l, int v) const {
+    const Level& L = levels[l];
+    if (!used_previous || v >= L.temporal_views()) return {};
+    return {&L.previous[v], &level_image(l, v), &L.previous_image[v], params.temporal_radius,
+            params.temporal_threshold};
+  }
+
+  // The temporal prior: the last frame's maps and images of the levels it narrows become this
+  // frame's previous ones (swaps: the planes this frame writes next held the frame before).
+  void take_previous_maps() {
+    used_previous = params.temporal && temporal_history;
+    if (!used_previous) return;
+    for (std::size_t l = 0; l < levels.size(); ++l) {
+      Level& L = levels[l];
+      for (int v = 0; v < L.temporal_views(); ++v) {
+        std::swap(L.disparity[v], L.previous[v]);
+        std::swap(l == 0 ? full_gray[v].back() : L.image[v], L.previous_image[v]);
+      }
+    }
+  }
+
   // Census and local matching of level l: each view searches around its own coarser map.
   detail::CensusMatchJob census_match_job(int l, const detail::CensusConfig& census, int views) {
     Level& L = levels[l];
@@ -468,8 +517,7 @@ struct Matcher::Impl {
     for (int v = 0; v < 2; ++v) {
       job.image[v] = &level_image(l, v);
       if (v >= views) continue;
-      const Plane<std::int16_t>* prior = L.coarsest ? nullptr : &levels[l + 1].disparity[v];
-      job.ranges[v] = detail::SearchRanges::around(prior, L.dmin, L.dmax, L.radius);
+      job.ranges[v] = search_ranges(l, v);
       job.config[v] = {v == 0 ? -1 : +1, L.shd_window, params.subpixel && l == 0, params.uniqueness_ratio};
       job.disparity[v] = &L.disparity[v];
     }
@@ -485,6 +533,7 @@ struct Matcher::Impl {
     Stopwatch frame, clock;
     frame.start();
     clock.start();
+    take_previous_maps();
 
     for (int v = 0; v < 2; ++v) stages->to_gray(*input[v], full_gray[v][0]);
     // The weighted median's colour: the left view's channels (gray input: the gray plane itself).
@@ -534,6 +583,7 @@ struct Matcher::Impl {
     timings.clear();
     for (int s = 0; s < kSlotCount; ++s) timings.push_back({kSlotNames[s], slot_ms[s]});
     has_frame = true;
+    temporal_history = params.temporal;
   }
 
   std::int16_t invalid_q4() const { return static_cast<std::int16_t>((params.min_disparity - 1) * kDisparityScale); }
@@ -557,10 +607,10 @@ struct Matcher::Impl {
       } else {
         w.views = L.right_map ? 2 : 1;
         for (int v = 0; v < w.views; ++v) {
-          const Plane<std::int16_t>* prior = L.coarsest ? nullptr : &levels[l + 1].disparity[v];
+          const detail::SearchRanges ranges = search_ranges(static_cast<int>(l), v);
           for (int y = 0; y < L.height; ++y)
             for (int x = 0; x < L.width; ++x) {
-              const detail::Interval r = detail::search_range_at(prior, L.dmin, L.dmax, L.radius, x, y);
+              const detail::Interval r = ranges.at(x, y);
               total += std::max(r.hi - r.lo + 1, 0);
             }
         }
@@ -579,6 +629,8 @@ Matcher::Matcher(Matcher&&) noexcept = default;
 Matcher& Matcher::operator=(Matcher&&) noexcept = default;
 
 void Matcher::compute(const ImageView& left, const ImageView& right) { impl_->compute(left, right); }
+void Matcher::reset_temporal() { impl_->temporal_history = false; }
+bool Matcher::used_temporal_prior() const { return impl_->used_previous; }
 
 MapView<const std::int16_t> Matcher::disparity_q4() const {
   const auto& p = impl_->out_q4[0];
@@ -684,7 +736,8 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
     if (L.scale_log2 > scale_steps) total += 2 * gray_bytes(L.width, L.height);
     if (whole_code_planes(L, Backend::Cpu))
       total += 2 * words * Plane<std::uint32_t>::bytes_for(L.width, L.height, detail::kCodePad);
-    total += (L.right_map ? 2 : 1) * (L.refine ? 2 : 1) * map_bytes(L.width, L.height);
+    total += ((L.right_map ? 2 : 1) * (L.refine ? 2 : 1) + L.temporal_views()) * map_bytes(L.width, L.height) +
+             L.temporal_views() * gray_bytes(L.width, L.height);
     if (L.is_sgm) total += detail::SgmVolume::plane_bytes_for(L.width, L.height, L.sgm_band, words);
   }
   const int w0 = plan.finest().width, h0 = plan.finest().height;

@@ -258,6 +258,10 @@ std::string StereoParams::validate() const {
          "] (pixels)");
   if (wm_sigma < 1 || wm_sigma > 255)
     fail("wm_sigma = " + std::to_string(wm_sigma) + " must be in [1, 255] (colour levels)");
+  if (temporal_radius < 0 || temporal_radius > 16)
+    fail("temporal_radius = " + std::to_string(temporal_radius) + " must be in [0, 16] (pixels)");
+  if (temporal_threshold < 0 || temporal_threshold > 255)
+    fail("temporal_threshold = " + std::to_string(temporal_threshold) + " must be in [0, 255] (gray levels)");
   if (box_levels < 0 || box_levels > 4)
     fail("box_levels = " + std::to_string(box_levels) + " must be in [0, 4]");
   else if (box_levels > 0 && !sgm())

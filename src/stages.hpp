@@ -107,6 +107,48 @@ inline Interval search_range_at(const Plane<std::int16_t>* coarse, int dmin, int
   return {std::min(std::max(dmin, 2 * mn - radius), dmax), std::max(std::min(dmax, 2 * mx + radius), dmin)};
 }
 
+/// The temporal prior of one view at one level (docs/PIPELINE.md, "Temporal prior"): the previous
+/// frame's map of the level and the level's image in this frame and the previous one. A pixel whose
+/// gray value changed by more than `threshold` since the previous frame has moved: it takes no prior.
+struct TemporalPrior {
+  const Plane<std::int16_t>* map = nullptr;  ///< null: no temporal prior
+  const Plane<std::uint8_t>* image = nullptr;
+  const Plane<std::uint8_t>* previous_image = nullptr;
+  int radius = 0;     ///< of its band and of the narrowed coarser band
+  int threshold = 0;  ///< largest change of the gray value of a still pixel
+  bool on() const { return map != nullptr; }
+};
+
+/// The temporal prior's band at pixel (x, y): [min - r, max + r] of the previous frame's valid
+/// values in the 3x3 around (x, y) (coordinates clamped; Q4 values taken to whole pixels, floor
+/// for the minimum and ceiling for the maximum), clipped to [dmin, dmax]. Empty (lo > hi) where the
+/// centre is invalid or the pixel has moved.
+inline Interval temporal_band_at(const TemporalPrior& t, int dmin, int dmax, int x, int y) {
+  const Plane<std::int16_t>& previous = *t.map;
+  const int w = previous.width(), h = previous.height();
+  if (previous.at(x, y) == kInvalid) return {1, 0};
+  if (std::abs(t.image->at(x, y) - t.previous_image->at(x, y)) > t.threshold) return {1, 0};
+  int mn = 1 << 20, mx = -(1 << 20);
+  for (int j = -1; j <= 1; ++j) {
+    for (int i = -1; i <= 1; ++i) {
+      const int v = previous.at(clamp_index(x + i, w), clamp_index(y + j, h));
+      if (v == kInvalid) continue;
+      mn = std::min(mn, v >> 4);
+      mx = std::max(mx, (v + 15) >> 4);
+    }
+  }
+  return {std::min(std::max(dmin, mn - t.radius), dmax), std::max(std::min(dmax, mx + t.radius), dmin)};
+}
+
+/// The temporal prior's rule: the band made from the coarser map (`coarse`, with the level's
+/// radius) is kept unless the previous frame's band lies inside it; then the pixel searches the
+/// smallest interval holding both the previous frame's band and `narrow`, the coarser map's band
+/// made with the temporal radius. The result never leaves `coarse`.
+inline Interval with_temporal_prior(Interval coarse, Interval narrow, Interval previous) {
+  if (previous.lo > previous.hi || previous.lo < coarse.lo || previous.hi > coarse.hi) return coarse;
+  return {std::min(narrow.lo, previous.lo), std::max(narrow.hi, previous.hi)};
+}
+
 /// The candidates match() searches at each pixel of a level: read from two planes lo and hi, or
 /// made where needed by search_range_at() around a coarse prior. The pipeline takes the second
 /// form, so that full-resolution range planes are never written and read back (at 640 x 480 that
@@ -116,6 +158,9 @@ struct SearchRanges {
   const Plane<std::int16_t>* hi = nullptr;
   const Plane<std::int16_t>* prior = nullptr;  ///< otherwise: the rule around this prior (null: no prior)
   int dmin = 0, dmax = 0, radius = 0;
+  /// The temporal prior (with_temporal_prior()) of this level and view; used only with a coarser
+  /// prior.
+  TemporalPrior temporal;
 
   static SearchRanges planes(const Plane<std::int16_t>& lo, const Plane<std::int16_t>& hi) {
     SearchRanges r;
@@ -132,8 +177,13 @@ struct SearchRanges {
     return r;
   }
   bool from_planes() const { return lo != nullptr; }
+  bool with_temporal() const { return temporal.on() && prior != nullptr; }
   Interval at(int x, int y) const {
-    return from_planes() ? Interval{lo->at(x, y), hi->at(x, y)} : search_range_at(prior, dmin, dmax, radius, x, y);
+    if (from_planes()) return {lo->at(x, y), hi->at(x, y)};
+    const Interval band = search_range_at(prior, dmin, dmax, radius, x, y);
+    if (!with_temporal()) return band;
+    return with_temporal_prior(band, search_range_at(prior, dmin, dmax, temporal.radius, x, y),
+                               temporal_band_at(temporal, dmin, dmax, x, y));
   }
 };
 
@@ -209,6 +259,9 @@ struct SgmBandConfig {
   int radius = 3;          ///< r around the priors
   int prior_size = 5;      ///< 3 or 5: the coarse neighbourhood whose priors span the band
   int max_band = 32;       ///< cut wider bands to this (the volume's band)
+  /// The temporal prior (with_temporal_prior()) of the left view at this level; used only with a
+  /// coarser map.
+  TemporalPrior temporal;
 };
 
 struct SgmPathConfig {
@@ -228,35 +281,44 @@ struct SgmScratch {
   int threads = 1;
 };
 
-/// The band rule of one pixel (left view): [2 min - r, 2 max + r] over the valid priors of the
-/// prior_size x prior_size coarse neighbourhood of (x/2, y/2), clipped to the level range (at least
-/// one candidate stays); no prior or an invalid centre: the whole range. Then clipped to the
-/// candidates inside the image (0 <= x - d < W; none: an empty band), and a band wider than
-/// max_band is cut to max_band candidates around c = 2 x the centre prior (the middle of the
-/// range without one): lo = clamp(c - max_band / 2, lo, hi - max_band + 1).
-inline Interval sgm_band_at(const Plane<std::int16_t>* coarse, const SgmBandConfig& config, int width, int x, int y) {
-  int lo = config.dmin, hi = config.dmax, centre = (config.dmin + config.dmax) >> 1;
-  if (coarse != nullptr) {
-    const int cw = coarse->width(), ch = coarse->height();
-    const int cx = std::min(x / 2, cw - 1), cy = std::min(y / 2, ch - 1);
-    if (coarse->at(cx, cy) != kInvalid) {
-      centre = 2 * (coarse->at(cx, cy) >> 4);
-      const int h = config.prior_size / 2;
-      int mn = 1 << 20, mx = -(1 << 20);
-      for (int j = -h; j <= h; ++j) {
-        for (int i = -h; i <= h; ++i) {
-          const int v = coarse->at(clamp_index(cx + i, cw), clamp_index(cy + j, ch));
-          if (v == kInvalid) continue;
-          mn = std::min(mn, v >> 4);
-          mx = std::max(mx, v >> 4);
-        }
-      }
-      lo = std::min(std::max(config.dmin, 2 * mn - config.radius), config.dmax);
-      hi = std::max(std::min(config.dmax, 2 * mx + config.radius), config.dmin);
+/// The prior rule of the SGM band at pixel (x, y) with radius r: [2 min - r, 2 max + r] over the
+/// valid priors of the prior_size x prior_size coarse neighbourhood of (x/2, y/2), clipped to the
+/// level range (at least one candidate stays); no prior or an invalid centre: the whole range.
+/// *centre is 2 x the centre prior (the middle of the range without one).
+inline Interval sgm_prior_band_at(const Plane<std::int16_t>* coarse, const SgmBandConfig& config, int radius, int x,
+                                  int y, int* centre) {
+  *centre = (config.dmin + config.dmax) >> 1;
+  if (coarse == nullptr) return {config.dmin, config.dmax};
+  const int cw = coarse->width(), ch = coarse->height();
+  const int cx = std::min(x / 2, cw - 1), cy = std::min(y / 2, ch - 1);
+  if (coarse->at(cx, cy) == kInvalid) return {config.dmin, config.dmax};
+  *centre = 2 * (coarse->at(cx, cy) >> 4);
+  const int h = config.prior_size / 2;
+  int mn = 1 << 20, mx = -(1 << 20);
+  for (int j = -h; j <= h; ++j) {
+    for (int i = -h; i <= h; ++i) {
+      const int v = coarse->at(clamp_index(cx + i, cw), clamp_index(cy + j, ch));
+      if (v == kInvalid) continue;
+      mn = std::min(mn, v >> 4);
+      mx = std::max(mx, v >> 4);
     }
   }
-  lo = std::max(lo, x - width + 1);
-  hi = std::min(hi, x);
+  return {std::min(std::max(config.dmin, 2 * mn - radius), config.dmax),
+          std::max(std::min(config.dmax, 2 * mx + radius), config.dmin)};
+}
+
+/// The SGM band of one pixel (left view): the prior rule with the level's radius (with the
+/// temporal prior, with_temporal_prior() of it), then clipped to the candidates inside the image
+/// (0 <= x - d < W; none: an empty band), and a band wider than max_band is cut to max_band
+/// candidates around c = 2 x the centre prior: lo = clamp(c - max_band / 2, lo, hi - max_band + 1).
+inline Interval sgm_band_at(const Plane<std::int16_t>* coarse, const SgmBandConfig& config, int width, int x, int y) {
+  int centre = 0;
+  Interval band = sgm_prior_band_at(coarse, config, config.radius, x, y, &centre);
+  if (coarse != nullptr && config.temporal.on())
+    band = with_temporal_prior(band, sgm_prior_band_at(coarse, config, config.temporal.radius, x, y, &centre),
+                               temporal_band_at(config.temporal, config.dmin, config.dmax, x, y));
+  int lo = std::max(band.lo, x - width + 1);
+  const int hi = std::min(band.hi, x);
   if (hi - lo + 1 > config.max_band) lo = std::clamp(centre - config.max_band / 2, lo, hi - config.max_band + 1);
   return {lo, lo > hi ? lo - 1 : std::min(hi, lo + config.max_band - 1)};
 }

@@ -5,38 +5,11 @@
 #include <functional>
 
 #include "mctstereo/matcher.hpp"
+#include "synthetic_scene.hpp"
 #include "test_util.hpp"
 
 namespace mctstereo::test {
 namespace {
-
-struct Scene {
-  std::vector<std::uint8_t> left, right;
-  std::vector<float> truth;  // left-view disparity
-  int w, h;
-};
-
-// The right view is random texture; the left view samples it at x - d(x, y) (linear
-// interpolation for fractional d) and both get Gaussian noise of the given sigma.
-Scene make_scene(int w, int h, const std::function<double(int, int)>& disparity, double noise, std::uint32_t seed) {
-  Scene s{std::vector<std::uint8_t>(w * h), std::vector<std::uint8_t>(w * h), std::vector<float>(w * h), w, h};
-  const Plane<std::uint8_t> texture = random_texture(w, h, seed);
-  std::mt19937 rng(seed + 1);
-  std::normal_distribution<double> gauss(0.0, noise);
-  auto noisy = [&](double v) { return static_cast<std::uint8_t>(std::clamp(std::lround(v + gauss(rng)), 0L, 255L)); };
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const double d = disparity(x, y);
-      s.truth[y * w + x] = static_cast<float>(d);
-      const double xs = x - d;
-      const int x0 = static_cast<int>(std::floor(xs));
-      const double t = xs - x0;
-      const double a = texture.at(std::clamp(x0, 0, w - 1), y), b = texture.at(std::clamp(x0 + 1, 0, w - 1), y);
-      s.left[y * w + x] = noisy(a + t * (b - a));
-      s.right[y * w + x] = noisy(texture.at(x, y));
-    }
-  return s;
-}
 
 // Fraction of pixels with a correspondence (x - d inside the right image) within 1 px.
 double fraction_within_1px(const Scene& s, const StereoParams& p) {

@@ -93,6 +93,13 @@ class Matcher {
   /// (colour is converted to luma, BT.601). Throws std::invalid_argument on a size mismatch or a
   /// null pointer.
   void compute(const ImageView& left, const ImageView& right);
+  /// With StereoParams::temporal: the next compute() matches its frame alone, as the first of a
+  /// sequence (call it at a cut the caller knows of, or when frames were skipped). The prior
+  /// guards itself against motion and cuts pixel by pixel; this drops it for a whole frame.
+  void reset_temporal();
+  /// Whether the last compute() used the previous frame's maps (StereoParams::temporal, a frame
+  /// before it, no reset_temporal() between).
+  bool used_temporal_prior() const;
 
   /// Left disparity of the last frame, Q4 (16 x pixels); invalid pixels hold invalid_q4().
   /// The view belongs to the matcher and is overwritten by the next compute().

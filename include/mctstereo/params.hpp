@@ -136,6 +136,23 @@ struct StereoParams {
   /// largest difference of the channels, 0..255. Range [1, 255].
   int wm_sigma = 10;
 
+  /// Temporal prior for sequences (docs/PIPELINE.md, "Temporal prior"): each level with a coarser
+  /// prior also reads the same level's map of the previous frame. Where the pixel's gray value is
+  /// unchanged (temporal_threshold) and the previous frame's band (its 3x3 disparities +-
+  /// temporal_radius) lies inside the band the coarser map gives, the pixel searches the union of
+  /// that band and the coarser map's band narrowed to temporal_radius; elsewhere (motion, a cut) it
+  /// searches as without the prior. A pixel never searches more than
+  /// without it, so a still scene needs fewer candidates and a new one the same. Only levels whose
+  /// radius exceeds temporal_radius change. cpu and reference backends; Matcher::reset_temporal()
+  /// drops the history.
+  bool temporal = false;
+  /// Radius of both narrowed bands of the temporal prior, pixels of the level. Range [0, 16].
+  int temporal_radius = 1;
+  /// Temporal prior: a pixel whose gray value at the level changed by more than this since the
+  /// previous frame has moved and searches as without the prior. Above the sensor noise of the
+  /// level's (smoothed) image. Range [0, 255], gray levels.
+  int temporal_threshold = 12;
+
   /// Working scale s: 1, 2 or 4. The pipeline runs on the input reduced s times (binomial pyramid)
   /// and the result is replicated s x s with disparities multiplied by s.
   int working_scale = 1;

@@ -166,3 +166,26 @@ def test_backends_agree(tsukuba):
         assert m.backend == backend
         maps[backend] = m.compute(small_l, small_r, channels="rgb")
     np.testing.assert_array_equal(maps["reference"], maps["cpu"])
+
+
+def test_temporal_prior_over_a_sequence(tsukuba):
+    left, right = tsukuba
+    params = mctstereo.preset("quality", num_disparities=16, temporal=True)
+    seq = mctstereo.Matcher(384, 288, params)
+    alone = mctstereo.Matcher(384, 288, mctstereo.preset("quality", num_disparities=16))
+    first = seq.compute(left, right, channels="rgb")
+    assert not seq.used_temporal_prior
+    np.testing.assert_array_equal(first, alone.compute(left, right, channels="rgb"))
+    second = seq.compute(left, right, channels="rgb")
+    assert seq.used_temporal_prior
+    # The same frame again: the prior narrows the search around the first map, which a few pixels
+    # leave (about 1.3 %), and the map stays whole.
+    valid = ~np.isnan(first) & ~np.isnan(second)
+    assert np.mean(valid) > 0.99
+    changed = np.mean(np.abs(first[valid] - second[valid]) > 1)
+    assert 0.0 < changed < 0.03
+    seq.reset_temporal()
+    np.testing.assert_array_equal(seq.compute(left, right, channels="rgb"), first)
+    assert not seq.used_temporal_prior
+    with pytest.raises(ValueError, match="temporal_radius"):
+        mctstereo.Matcher(384, 288, mctstereo.preset("quality", temporal=True, temporal_radius=17))

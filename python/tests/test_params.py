@@ -14,6 +14,7 @@ FIELDS = [
     "lr_threshold", "speckle_size", "uniqueness_ratio", "fill", "post_median_size", "refine_all_levels",
     "aggregation", "sgm_p1", "sgm_p2", "sgm_p2_k", "prior_size", "box_levels", "finest_search_radius", "sgm_max_band",
     "weighted_median", "wm_radius", "wm_step", "wm_sigma", "working_scale",
+    "temporal", "temporal_radius", "temporal_threshold",
 ]
 
 

@@ -572,6 +572,10 @@ void MatchTile(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t byt
     std::fill_n(made_lo, tw, static_cast<std::int16_t>(ranges.dmin));
     std::fill_n(made_hi, tw, static_cast<std::int16_t>(ranges.dmax));
   }
+  // The temporal prior: the coarser map's band of the temporal radius (per coarse row, as the
+  // band above) and the row's result, which depends on the fine row.
+  alignas(64) std::int16_t narrow_lo[kTile + kRangeSegmentSlack] = {}, narrow_hi[kTile + kRangeSegmentSlack] = {};
+  alignas(64) std::int16_t row_lo[kTile + kRangeSegmentSlack] = {}, row_hi[kTile + kRangeSegmentSlack] = {};
   int made_cy = -1;
   int umin = INT16_MAX, umax = INT16_MIN;
   for (int r = 0; r < th; ++r) {
@@ -583,8 +587,18 @@ void MatchTile(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t byt
     } else if (ranges.prior != nullptr) {
       const int cy = std::min((y0 + r) / 2, ranges.prior->height() - 1);
       if (cy != made_cy) {
-        PriorRangeSegment(*ranges.prior, cy, x0, x0 + tw, ranges.dmin, ranges.dmax, ranges.radius, made_lo, made_hi);
+        if (ranges.with_temporal())
+          PriorRangeSegment(*ranges.prior, cy, x0, x0 + tw, ranges.dmin, ranges.dmax, ranges.radius, made_lo, made_hi,
+                            ranges.temporal.radius, narrow_lo, narrow_hi);
+        else
+          PriorRangeSegment(*ranges.prior, cy, x0, x0 + tw, ranges.dmin, ranges.dmax, ranges.radius, made_lo, made_hi);
         made_cy = cy;
+      }
+      if (ranges.with_temporal()) {
+        TemporalRangeSegment(ranges.temporal, y0 + r, x0, x0 + tw, ranges.dmin, ranges.dmax, made_lo, made_hi,
+                             narrow_lo, narrow_hi, row_lo, row_hi);
+        lr = row_lo;
+        hr = row_hi;
       }
     }
     V16 acc_f = vmax, acc_l = vmin;

@@ -32,8 +32,13 @@ inline constexpr int kRangeSegmentSlack = 64;
 // Arithmetic stays in int16: v >> 4 lies in [-2048, 2047], so 2 v cannot overflow, and the
 // saturating +- radius (a small number) only saturates where the reference's int result lies
 // outside int16 too, which the clip to [dmin, dmax] (int16 values) then maps to the same bound.
+//
+// With narrow_lo (the temporal prior), the ranges of a second radius narrow_radius go to narrow_lo
+// and narrow_hi in the same way, from the same extrema.
 inline void PriorRangeSegment(const Plane<std::int16_t>& coarse, int cy, int x_begin, int x_end, int dmin, int dmax,
-                              int radius, std::int16_t* HWY_RESTRICT lo_out, std::int16_t* HWY_RESTRICT hi_out) {
+                              int radius, std::int16_t* HWY_RESTRICT lo_out, std::int16_t* HWY_RESTRICT hi_out,
+                              int narrow_radius = 0, std::int16_t* HWY_RESTRICT narrow_lo = nullptr,
+                              std::int16_t* HWY_RESTRICT narrow_hi = nullptr) {
   namespace hn = hwy::HWY_NAMESPACE;
   // Coarse columns per pass; their column minima and maxima live in stack arrays. Vectors are at
   // most 64 bytes: the slack every Plane row has past its end.
@@ -55,6 +60,10 @@ inline void PriorRangeSegment(const Plane<std::int16_t>& coarse, int cy, int x_b
   HWY_ALIGN std::int16_t col_max[kChunk + 2 + kMaxLanes];
   HWY_ALIGN std::int16_t lo_buf[kChunk + kMaxLanes];
   HWY_ALIGN std::int16_t hi_buf[kChunk + kMaxLanes];
+  HWY_ALIGN std::int16_t narrow_lo_buf[kChunk + kMaxLanes];
+  HWY_ALIGN std::int16_t narrow_hi_buf[kChunk + kMaxLanes];
+  const bool narrow = narrow_lo != nullptr;
+  const auto vnr = hn::Set(d, static_cast<std::int16_t>(std::clamp(narrow_radius, -32768, 32767)));
 
   const int c_first = std::min(x_begin / 2, cw - 1), c_last = std::min((x_end - 1) / 2, cw - 1);
   int c0 = c_first;
@@ -85,6 +94,12 @@ inline void PriorRangeSegment(const Plane<std::int16_t>& coarse, int cy, int x_b
       const auto prior_invalid = hn::Eq(hn::LoadU(d, centre + k), invalid);
       hn::StoreU(hn::IfThenElse(prior_invalid, vmin, lo), d, lo_buf + (k - c0));
       hn::StoreU(hn::IfThenElse(prior_invalid, vmax, hi), d, hi_buf + (k - c0));
+      if (narrow) {
+        const auto nlo = hn::Min(hn::Max(vmin, hn::SaturatedSub(hn::Add(mn_px, mn_px), vnr)), vmax);
+        const auto nhi = hn::Max(hn::Min(vmax, hn::SaturatedAdd(hn::Add(mx_px, mx_px), vnr)), vmin);
+        hn::StoreU(hn::IfThenElse(prior_invalid, vmin, nlo), d, narrow_lo_buf + (k - c0));
+        hn::StoreU(hn::IfThenElse(prior_invalid, vmax, nhi), d, narrow_hi_buf + (k - c0));
+      }
     }
 
     // Coarse column k covers the fine columns 2k and 2k + 1.
@@ -94,6 +109,11 @@ inline void PriorRangeSegment(const Plane<std::int16_t>& coarse, int cy, int x_b
       const auto l = hn::LoadU(d, lo_buf + (k - c0)), u = hn::LoadU(d, hi_buf + (k - c0));
       hn::StoreInterleaved2(l, l, d, lo_out + (2 * k - x_begin));
       hn::StoreInterleaved2(u, u, d, hi_out + (2 * k - x_begin));
+      if (narrow) {
+        const auto nl = hn::LoadU(d, narrow_lo_buf + (k - c0)), nu = hn::LoadU(d, narrow_hi_buf + (k - c0));
+        hn::StoreInterleaved2(nl, nl, d, narrow_lo + (2 * k - x_begin));
+        hn::StoreInterleaved2(nu, nu, d, narrow_hi + (2 * k - x_begin));
+      }
     }
     if (c1 > c_last) break;
   }
@@ -102,6 +122,85 @@ inline void PriorRangeSegment(const Plane<std::int16_t>& coarse, int cy, int x_b
   for (int x = std::max(x_begin, 2 * cw); x < x_end; ++x) {
     lo_out[x - x_begin] = lo_buf[cw - 1 - c0];
     hi_out[x - x_begin] = hi_buf[cw - 1 - c0];
+    if (narrow) {
+      narrow_lo[x - x_begin] = narrow_lo_buf[cw - 1 - c0];
+      narrow_hi[x - x_begin] = narrow_hi_buf[cw - 1 - c0];
+    }
+  }
+}
+
+/// Longest segment TemporalRangeSegment takes.
+inline constexpr int kTemporalSegment = 256;
+
+// The temporal prior (with_temporal_prior() of stages.hpp, vectorised) over the columns
+// [x_begin, x_end) of row y, at most kTemporalSegment of them: band_lo / band_hi hold the coarser
+// map's band (the level's radius), narrow_lo / narrow_hi its band of the temporal radius, all
+// indexed from x_begin; the result goes to lo_out / hi_out. Whole vectors are written, up to
+// kRangeSegmentSlack values past x_end, as PriorRangeSegment does; the inputs are read as far.
+//
+// The previous frame's band: kInvalid (INT16_MIN) never wins a maximum over a valid value and is
+// replaced by INT16_MAX for the minimum; (max + 15) >> 4 cannot overflow (max <= 32767 - 15 for
+// any valid Q4 value, and a column of invalid values only matters where the centre is invalid,
+// whose result is discarded). The images' values are promoted to int16, where |a - b| <= 255.
+inline void TemporalRangeSegment(const TemporalPrior& t, int y, int x_begin, int x_end, int dmin, int dmax,
+                                 const std::int16_t* HWY_RESTRICT band_lo, const std::int16_t* HWY_RESTRICT band_hi,
+                                 const std::int16_t* HWY_RESTRICT narrow_lo, const std::int16_t* HWY_RESTRICT narrow_hi,
+                                 std::int16_t* HWY_RESTRICT lo_out, std::int16_t* HWY_RESTRICT hi_out) {
+  namespace hn = hwy::HWY_NAMESPACE;
+  constexpr int kMaxLanes = 32;
+  const hn::CappedTag<std::int16_t, kMaxLanes> d;
+  const int n = static_cast<int>(hn::Lanes(d));
+  const hn::Rebind<std::uint8_t, decltype(d)> d8;
+  const Plane<std::int16_t>& previous = *t.map;
+  const int w = previous.width(), h = previous.height();
+  const std::int16_t* above = previous.row(clamp_index(y - 1, h));
+  const std::int16_t* centre = previous.row(y);
+  const std::int16_t* below = previous.row(clamp_index(y + 1, h));
+  const std::uint8_t* image = t.image->row(y);
+  const std::uint8_t* previous_image = t.previous_image->row(y);
+  const auto threshold = hn::Set(d, static_cast<std::int16_t>(t.threshold));
+  const auto invalid = hn::Set(d, kInvalid);
+  const auto largest = hn::Set(d, std::numeric_limits<std::int16_t>::max());
+  const auto vmin = hn::Set(d, static_cast<std::int16_t>(dmin));
+  const auto vmax = hn::Set(d, static_cast<std::int16_t>(dmax));
+  const auto vr = hn::Set(d, static_cast<std::int16_t>(t.radius));
+  // Column extrema of the columns x_begin - 1 .. x_end (clamped to the image); index 0 holds
+  // column x_begin - 1. Vectors may run a vector past the last entry needed.
+  HWY_ALIGN std::int16_t col_min[kTemporalSegment + 2 + kMaxLanes];
+  HWY_ALIGN std::int16_t col_max[kTemporalSegment + 2 + kMaxLanes];
+  const int first = std::max(x_begin - 1, 0), last = std::min(x_end + 1, w);
+  for (int k = first; k < last; k += n) {
+    // Loads past the row's end stay inside its 64-byte slack; their lanes are not used.
+    const auto a = hn::LoadU(d, above + k), b = hn::LoadU(d, centre + k), c = hn::LoadU(d, below + k);
+    auto for_min = [&](hn::Vec<decltype(d)> v) { return hn::IfThenElse(hn::Eq(v, invalid), largest, v); };
+    hn::StoreU(hn::Min(hn::Min(for_min(a), for_min(b)), for_min(c)), d, col_min + (k - x_begin + 1));
+    hn::StoreU(hn::Max(hn::Max(a, b), c), d, col_max + (k - x_begin + 1));
+  }
+  if (x_begin == 0) col_min[0] = col_min[1], col_max[0] = col_max[1];  // column -1 repeats column 0
+  if (x_end == w) col_min[w - x_begin + 1] = col_min[w - x_begin], col_max[w - x_begin + 1] = col_max[w - x_begin];
+
+  for (int x = x_begin; x < x_end; x += n) {
+    const int i = x - x_begin + 1;
+    const auto mn = hn::Min(hn::Min(hn::LoadU(d, col_min + i - 1), hn::LoadU(d, col_min + i)),
+                            hn::LoadU(d, col_min + i + 1));
+    const auto mx = hn::Max(hn::Max(hn::LoadU(d, col_max + i - 1), hn::LoadU(d, col_max + i)),
+                            hn::LoadU(d, col_max + i + 1));
+    const auto mn_px = hn::ShiftRight<4>(mn);                                  // floor, as v >> 4
+    const auto mx_px = hn::ShiftRight<4>(hn::Add(mx, hn::Set(d, int16_t{15})));  // ceiling
+    const auto t_lo = hn::Min(hn::Max(vmin, hn::Sub(mn_px, vr)), vmax);
+    const auto t_hi = hn::Max(hn::Min(vmax, hn::Add(mx_px, vr)), vmin);
+    const int o = x - x_begin;
+    const auto c_lo = hn::LoadU(d, band_lo + o), c_hi = hn::LoadU(d, band_hi + o);
+    // The previous band is used where its centre is valid, the pixel has not moved and the band
+    // lies inside the coarser one.
+    const auto change = hn::Abs(hn::Sub(hn::PromoteTo(d, hn::LoadU(d8, image + x)),
+                                        hn::PromoteTo(d, hn::LoadU(d8, previous_image + x))));
+    const auto outside = hn::Or(hn::Or(hn::Lt(t_lo, c_lo), hn::Gt(t_hi, c_hi)),  //
+                                hn::Gt(change, threshold));
+    const auto use = hn::AndNot(outside, hn::Ne(hn::LoadU(d, centre + x), invalid));
+    const auto lo = hn::Min(hn::LoadU(d, narrow_lo + o), t_lo), hi = hn::Max(hn::LoadU(d, narrow_hi + o), t_hi);
+    hn::StoreU(hn::IfThenElse(use, lo, c_lo), d, lo_out + o);
+    hn::StoreU(hn::IfThenElse(use, hi, c_hi), d, hi_out + o);
   }
 }
 

@@ -56,11 +56,14 @@ inline int block_lines(int most, int lines, int threads) {
 }
 
 // Per thread: two path buffers per line of a block for sgm_aggregate, five padded u16 rows
-// for sgm_select's right view, or five int rows of the level's width for sgm_costs' coarse bands.
+// for sgm_select's right view, or for sgm_costs' bands seven int rows of the level's width (the
+// coarse row's) and six int16 rows of the width plus 64 (the temporal prior's), each part 64-byte
+// aligned.
 std::size_t sgm_scratch_bytes(int width, int /*height*/, int stride) {
-  return std::max(2 * kMaxBlock * static_cast<std::size_t>(path_buffer_entries(stride)) * sizeof(std::uint16_t),
-                  5 * static_cast<std::size_t>(width + 2 * right_row_pad(stride)) * sizeof(std::uint16_t) +
-                      5 * static_cast<std::size_t>(width) * sizeof(int));
+  const std::size_t w = static_cast<std::size_t>(width);
+  const std::size_t bands = (7 * w * sizeof(int) + 63) / 64 * 64 + 6 * ((w + 64 + 31) / 32 * 32) * sizeof(std::int16_t);
+  return std::max({2 * kMaxBlock * static_cast<std::size_t>(path_buffer_entries(stride)) * sizeof(std::uint16_t),
+                   5 * (w + 2 * right_row_pad(stride)) * sizeof(std::uint16_t), bands});
 }
 
 // The first pixel of line i of a path with step (dx, dy).

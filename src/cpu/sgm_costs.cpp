@@ -25,6 +25,7 @@
 #include <algorithm>
 
 #include "cpu/parallel.hpp"
+#include "cpu/search_range-inl.h"
 #include "stages.hpp"
 
 #ifndef MCTSTEREO_CPU_SGM_COSTS_ONCE
@@ -32,9 +33,10 @@
 namespace mctstereo::detail::cpu {
 
 // The band of every coarse pixel of coarse row cy before the clip to the image: [lo, hi] and the
-// centre c (sgm_band_at()'s terms), in lo_c, hi_c, centre_c (cw entries each).
+// centre c (sgm_band_at()'s terms), in lo_c, hi_c, centre_c (cw entries each); with the temporal
+// prior (narrow_lo_c not null) also the band of the temporal radius, in narrow_lo_c, narrow_hi_c.
 inline void coarse_bands(const Plane<std::int16_t>& coarse, const SgmBandConfig& config, int cy, int* lo_c, int* hi_c,
-                         int* centre_c, int* col_min, int* col_max) {
+                         int* centre_c, int* col_min, int* col_max, int* narrow_lo_c, int* narrow_hi_c) {
   const int cw = coarse.width(), ch = coarse.height(), h = config.prior_size / 2;
   constexpr int kNone = 1 << 20;
   for (int cx = 0; cx < cw; ++cx) {
@@ -54,6 +56,7 @@ inline void coarse_bands(const Plane<std::int16_t>& coarse, const SgmBandConfig&
       lo_c[cx] = config.dmin;
       hi_c[cx] = config.dmax;
       centre_c[cx] = (config.dmin + config.dmax) >> 1;
+      if (narrow_lo_c != nullptr) narrow_lo_c[cx] = config.dmin, narrow_hi_c[cx] = config.dmax;
       continue;
     }
     int mn = kNone, mx = -kNone;
@@ -65,6 +68,10 @@ inline void coarse_bands(const Plane<std::int16_t>& coarse, const SgmBandConfig&
     lo_c[cx] = std::min(std::max(config.dmin, 2 * mn - config.radius), config.dmax);
     hi_c[cx] = std::max(std::min(config.dmax, 2 * mx + config.radius), config.dmin);
     centre_c[cx] = 2 * (centre >> 4);
+    if (narrow_lo_c != nullptr) {
+      narrow_lo_c[cx] = std::min(std::max(config.dmin, 2 * mn - config.temporal.radius), config.dmax);
+      narrow_hi_c[cx] = std::max(std::min(config.dmax, 2 * mx + config.temporal.radius), config.dmin);
+    }
   }
 }
 
@@ -158,16 +165,48 @@ RowCostsFn RowCostsFor(int a) {
   }
 }
 
-// The band of every pixel of row y (sgm_band_at()), from the coarse row's bands.
-void RowBands(const SgmBandConfig& config, int w, bool has_coarse, int cw, const int* lo_c, const int* hi_c,
-              const int* centre_c, std::int16_t* lo_row, std::int16_t* count_row) {
+// The coarse row's bands for RowBands().
+struct CoarseRowBands {
+  const int *lo, *hi, *centre;
+  const int *narrow_lo, *narrow_hi;  // the temporal radius's (temporal prior only)
+};
+
+// Six int16 rows of the level's width plus kRangeSegmentSlack for the temporal prior: the coarser
+// map's bands of both radii per pixel, then the result.
+struct TemporalRows {
+  std::int16_t *band_lo, *band_hi, *narrow_lo, *narrow_hi, *lo, *hi;
+};
+
+// The temporal prior's band of every pixel of row y before the clip to the image
+// (with_temporal_prior()), into rows.lo and rows.hi.
+void TemporalRowBands(const SgmBandConfig& config, int w, int y, int cw, const CoarseRowBands& coarse,
+                      const TemporalRows& rows) {
+  for (int x = 0; x < w; ++x) {
+    const int cx = std::min(x / 2, cw - 1);
+    rows.band_lo[x] = static_cast<std::int16_t>(coarse.lo[cx]);
+    rows.band_hi[x] = static_cast<std::int16_t>(coarse.hi[cx]);
+    rows.narrow_lo[x] = static_cast<std::int16_t>(coarse.narrow_lo[cx]);
+    rows.narrow_hi[x] = static_cast<std::int16_t>(coarse.narrow_hi[cx]);
+  }
+  // Segments may write past their end: each later one rewrites what the one before spilled.
+  for (int x = 0; x < w; x += kTemporalSegment)
+    TemporalRangeSegment(config.temporal, y, x, std::min(x + kTemporalSegment, w), config.dmin, config.dmax,
+                         rows.band_lo + x, rows.band_hi + x, rows.narrow_lo + x, rows.narrow_hi + x, rows.lo + x,
+                         rows.hi + x);
+}
+
+// The band of every pixel of row y (sgm_band_at()), from the coarse row's bands (null: no prior),
+// or with the temporal prior from TemporalRowBands()'s rows.
+void RowBands(const SgmBandConfig& config, int w, int y, int cw, const CoarseRowBands* coarse,
+              const TemporalRows* temporal, std::int16_t* lo_row, std::int16_t* count_row) {
+  if (temporal != nullptr) TemporalRowBands(config, w, y, cw, *coarse, *temporal);
   for (int x = 0; x < w; ++x) {
     int lo = config.dmin, hi = config.dmax, centre = (config.dmin + config.dmax) >> 1;
-    if (has_coarse) {
+    if (coarse != nullptr) {
       const int cx = std::min(x / 2, cw - 1);
-      lo = lo_c[cx];
-      hi = hi_c[cx];
-      centre = centre_c[cx];
+      lo = temporal != nullptr ? temporal->lo[x] : coarse->lo[cx];
+      hi = temporal != nullptr ? temporal->hi[x] : coarse->hi[cx];
+      centre = coarse->centre[cx];
     }
     lo = std::max(lo, x - w + 1);
     hi = std::min(hi, x);
@@ -192,17 +231,30 @@ void SgmCosts(const CensusCodes& left, const CensusCodes& right, const Plane<std
   parallel_for(
       h, 4,
       [&](int y0, int y1) {
-        // Five int rows of the coarse width per thread (sgm_scratch_bytes holds five of the level's).
+        // Seven int rows of the coarse width per thread (sgm_scratch_bytes holds seven of the level's
+        // width), then the temporal prior's rows.
         int* lo_c = reinterpret_cast<int*>(scratch.data.get() + thread_slot() * scratch.bytes_per_thread);
         int *hi_c = lo_c + cw, *centre_c = hi_c + cw, *col_min = centre_c + cw, *col_max = col_min + cw;
-        int last_cy = -1;  // the coarse row whose bands lo_c .. col_max hold, within this chunk
+        int *narrow_lo_c = col_max + cw, *narrow_hi_c = narrow_lo_c + cw;
+        const bool temporal = config.temporal.on() && coarse != nullptr;
+        if (!temporal) narrow_lo_c = narrow_hi_c = nullptr;
+        const CoarseRowBands row_bands{lo_c, hi_c, centre_c, narrow_lo_c, narrow_hi_c};
+        // Then the temporal prior's int16 rows, 64-byte aligned.
+        const std::size_t row16 = (static_cast<std::size_t>(w) + kRangeSegmentSlack + 31) / 32 * 32;
+        std::int16_t* t0 = reinterpret_cast<std::int16_t*>(
+            reinterpret_cast<std::uint8_t*>(lo_c) + (7 * static_cast<std::size_t>(cw) * sizeof(int) + 63) / 64 * 64);
+        const TemporalRows temporal_rows{t0, t0 + row16, t0 + 2 * row16, t0 + 3 * row16, t0 + 4 * row16,
+                                         t0 + 5 * row16};
+        int last_cy = -1;  // the coarse row whose bands lo_c .. narrow_hi_c hold, within this chunk
         for (int y = y0; y < y1; ++y) {
           if (coarse != nullptr) {
             const int cy = std::min(y / 2, coarse->height() - 1);
-            if (cy != last_cy) coarse_bands(*coarse, config, cy, lo_c, hi_c, centre_c, col_min, col_max);
+            if (cy != last_cy)
+              coarse_bands(*coarse, config, cy, lo_c, hi_c, centre_c, col_min, col_max, narrow_lo_c, narrow_hi_c);
             last_cy = cy;
           }
-          RowBands(config, w, coarse != nullptr, cw, lo_c, hi_c, centre_c, v.lo.row(y), v.count.row(y));
+          RowBands(config, w, y, cw, coarse != nullptr ? &row_bands : nullptr, temporal ? &temporal_rows : nullptr,
+                   v.lo.row(y), v.count.row(y));
           const std::uint32_t* left_rows[9 * 3];
           const std::uint32_t* mirror_rows[9 * 3];
           for (int j = 0; j < shd_window; ++j) {

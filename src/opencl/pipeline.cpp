@@ -395,7 +395,7 @@ void Pipeline::run_levels() {
 // paths over the left gray image, the winners of both views from the same sums.
 void Pipeline::match_sgm(int l, const DevicePlane<std::int16_t>* prior) {
   Level& L = levels_[l];
-  const SgmBandConfig band{L.dmin, L.dmax, L.radius, params_.prior_size, L.sgm.band};
+  const SgmBandConfig band{L.dmin, L.dmax, L.radius, params_.prior_size, L.sgm.band, {}};
   stages_->sgm_costs->run(L.codes[0], L.codes[1], prior, band, L.shd_window, L.sgm);
   const SgmPathConfig paths{params_.sgm_paths(), params_.sgm_p1, params_.sgm_p2, params_.sgm_p2_k};
   stages_->sgm_aggregate->run(level_image(l, 0), paths, L.sgm);

@@ -670,3 +670,35 @@ TEST_F(Stream, SyntheticInputIsMatchedToItsKnownDisparities) {
   expect_failure("--synthetic 10x10", kUsage, "--synthetic '10x10': the width must lie in [48, 8192]");
   expect_failure("--synthetic 64x48 --left 'seq/left_%04d.png' --right x", kUsage, "give one input");
 }
+
+// --temporal: the same known disparities with fewer candidates; the summary says so.
+TEST_F(Stream, TemporalPriorKeepsTheMapsWithFewerCandidates) {
+  const auto candidates = [](const std::string& output) {
+    const std::size_t at = output.find("last frame: ");
+    return at == std::string::npos ? -1.0 : std::stod(output.substr(at + 12));
+  };
+  fs::create_directories(folder_ / "alone");
+  fs::create_directories(folder_ / "temporal");
+  const Result alone = run("--synthetic 160x120 --max-frames 6 --preset quality " + kMatching +
+                           "--disparity 'alone/d%d.pfm' --quiet");
+  const Result temporal = run("--synthetic 160x120 --max-frames 6 --preset quality --temporal " + kMatching +
+                              "--disparity 'temporal/d%d.pfm' --quiet");
+  ASSERT_EQ(alone.status, 0) << alone.output;
+  ASSERT_EQ(temporal.status, 0) << temporal.output;
+  EXPECT_NE(temporal.output.find("candidates per pixel at the finest level (temporal prior)"), std::string::npos)
+      << temporal.output;
+  EXPECT_GT(candidates(alone.output), 0.0) << alone.output;
+  EXPECT_LT(candidates(temporal.output), 0.6 * candidates(alone.output)) << temporal.output;
+  for (int f = 1; f < 6; ++f) {
+    const cv::Mat a = read_pfm(folder_ / "alone" / numbered("d%d.pfm", f));
+    const cv::Mat t = read_pfm(folder_ / "temporal" / numbered("d%d.pfm", f));
+    int differ = 0;
+    for (int y = 0; y < a.rows; ++y)
+      for (int x = 0; x < a.cols; ++x) differ += std::abs(a.at<float>(y, x) - t.at<float>(y, x)) > 1.0f;
+    EXPECT_LT(differ, a.rows * a.cols / 100) << "frame " << f;
+  }
+  expect_failure("--synthetic 64x48 --temporal-radius 2", kUsage,
+                 "--temporal-radius applies to --temporal, which was not given");
+  expect_failure("--synthetic 64x48 --temporal --temporal-threshold 300", kUsage,
+                 "temporal_threshold = 300 must be in [0, 255]");
+}

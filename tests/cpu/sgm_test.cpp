@@ -184,13 +184,13 @@ ShiftedPair edge_pair(int w, int h, std::uint32_t seed, int d0, int d1) {
 
 template <typename Stages>
 SgmResult run_stages(const SgmCase& c, const ShiftedPair& pair, const Plane<std::int16_t>* prior, int threads,
-                     Stages stages) {
+                     Stages stages, const detail::TemporalPrior& temporal = {}) {
   const int words = detail::census_words(c.census);
   const detail::CensusCodes left = reference_census(pair.left, c.census, CensusKind::Census);
   const detail::CensusCodes right = reference_census(pair.right, c.census, CensusKind::Census);
   OwnedVolume o(c.w, c.h, c.max_band, words);
   SgmVolume& v = o.v;
-  const SgmBandConfig band{c.dmin, c.dmax, c.radius, c.prior_size, c.max_band};
+  const SgmBandConfig band{c.dmin, c.dmax, c.radius, c.prior_size, c.max_band, temporal};
   auto scratch = make_scratch(stages.scratch_bytes(c.w, c.h, v.stride), threads);
   stages.costs(left, right, prior, band, c.shd, scratch, v);
   stages.aggregate(pair.left, SgmPathConfig{c.paths, 20, 150, c.p2k}, scratch, v);
@@ -348,6 +348,53 @@ TEST(SgmStages, CpuEqualsReference) {
     });
     omp_set_num_threads(saved);
   }
+}
+
+// The bands with the temporal prior (every case with a coarser prior): a previous map near twice
+// the prior (sub-pixel values, jumps, invalid pixels) and images in which some pixels moved (changed
+// by 13 > threshold 12) and some did not (changed by 12).
+TEST(SgmStages, TemporalBandsCpuEqualReference) {
+  std::uint32_t seed = 40;
+  long narrowed = 0;  // bands the prior narrowed (a band already cut to max_band may stay as it is)
+  for (const SgmCase& c : sgm_cases()) {
+    if (!c.with_prior) continue;
+    const ShiftedPair pair = edge_pair(c.w, c.h, seed, std::max(c.dmin, 0) + 2, std::min(c.dmax, c.w - 1));
+    const Plane<std::int16_t> prior = make_prior(c.w, c.h, c.dmin, c.dmax, seed + 3);
+    const Plane<std::int16_t> jitter = random_disparity(c.w, c.h, seed + 5, -24, 24, 0.1);
+    Plane<std::int16_t> previous(c.w, c.h);
+    Plane<std::uint8_t> before(c.w, c.h);
+    for (int y = 0; y < c.h; ++y)
+      for (int x = 0; x < c.w; ++x) {
+        const int p = prior.at(x / 2, y / 2), j = jitter.at(x, y);
+        previous.at(x, y) = p == kInvalid || j == kInvalid
+                                ? kInvalid
+                                : static_cast<std::int16_t>(std::clamp(2 * p + j, 16 * c.dmin, 16 * c.dmax));
+        // Changes of 13 and -13 (moved) and 12 (still) at every seventh pixel.
+        const int change = (x + y) % 7 == 0 ? 13 : (x + y) % 7 == 3 ? -13 : (x + y) % 7 == 5 ? 12 : 0;
+        const int value = pair.left.at(x, y);
+        before.at(x, y) = static_cast<std::uint8_t>(value + change >= 0 && value + change <= 255 ? value + change
+                                                                                                : value - change);
+      }
+    ++seed;
+    for (int radius : {0, 1}) {
+      const detail::TemporalPrior temporal{&previous, &pair.left, &before, radius, 12};
+      const SgmResult ref = run_stages(c, pair, &prior, 1, ReferenceStages{}, temporal);
+      const SgmResult alone = run_stages(c, pair, &prior, 1, ReferenceStages{});
+      for (int y = 0; y < c.h; ++y)
+        for (int x = 0; x < c.w; ++x) narrowed += ref.count.at(x, y) < alone.count.at(x, y);
+      const int saved = omp_get_max_threads();
+      for_each_simd_target([&](const std::string& target) {
+        for (int threads : {1, 2}) {
+          omp_set_num_threads(threads);
+          expect_equal(ref, run_stages(c, pair, &prior, threads, CpuStages{}, temporal),
+                       describe(c) + " temporal radius " + std::to_string(radius) + " on " + target + ", " +
+                           std::to_string(threads) + " thread(s)");
+        }
+      });
+      omp_set_num_threads(saved);
+    }
+  }
+  EXPECT_GT(narrowed, 1000);
 }
 
 TEST(SgmStages, PathsRecoverASteppedScene) {
