@@ -180,7 +180,10 @@ TEST(Temporal, BandRuleKnownAnswers) {
 
 TEST(Temporal, EverySimdTargetEqualsReference) {
   const std::vector<Scene> frames = {square_scene(60, 26, 1), square_scene(60, 26, 2), square_scene(63, 27, 3)};
-  for (const auto& [name, p] : temporal_cases()) {
+  for (const auto& named : temporal_cases()) {
+    // Named copies: a lambda may not capture structured bindings (C++20 as Clang 14 implements it).
+    const std::string& name = named.first;
+    const StereoParams& p = named.second;
     Matcher ref(kW, kH, p, Backend::Reference);
     for (const Scene& s : frames) ref.compute(s.left_view(), s.right_view());
     for_each_simd_target([&](const std::string& target) {
