@@ -22,6 +22,7 @@
 #include "json.hpp"
 #include "machine_info.hpp"
 #include "mctstereo/matcher.hpp"
+#include "mctstereo/metrics.hpp"
 #include "mctstereo/version.hpp"
 
 namespace {
@@ -63,18 +64,13 @@ ImageView view_of(const cv::Mat& m) {
           m.channels() == 3 ? PixelFormat::Bgr8 : PixelFormat::Gray8};
 }
 
+template <typename T>
+MapView<const T> map_view(const cv::Mat& m) {
+  return {m.ptr<const T>(0), m.cols, m.rows, static_cast<std::ptrdiff_t>(m.step[0] / sizeof(T))};
+}
+
 double percent_bad(const Frame& f, const Matcher& m) {
-  const MapView<const float> d = m.disparity();
-  long bad = 0, total = 0;
-  for (int y = 0; y < f.truth.rows; ++y)
-    for (int x = 0; x < f.truth.cols; ++x) {
-      const float t = f.truth.at<float>(y, x);
-      if (std::isnan(t) || f.nonocc.at<std::uint8_t>(y, x) != 255) continue;
-      ++total;
-      const float v = d.at(x, y);
-      if (std::isnan(v) || std::fabs(v - t) > 1.0f) ++bad;
-    }
-  return total > 0 ? 100.0 * bad / total : 0.0;
+  return bad_pixels(m.disparity(), map_view<float>(f.truth), map_view<std::uint8_t>(f.nonocc)).percent();
 }
 
 struct Result {

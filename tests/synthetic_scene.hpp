@@ -47,4 +47,22 @@ inline Scene make_scene(int w, int h, const std::function<double(int, int)>& dis
   return s;
 }
 
+/// The pixels of a scene with a correspondence (x - d inside the right view), and of those the
+/// bad ones: invalid in `disparity` or more than 1 px off.
+struct CorrespondenceScore {
+  long bad = 0, total = 0;
+};
+inline CorrespondenceScore score_correspondences(const Scene& s, MapView<const float> disparity) {
+  CorrespondenceScore score;
+  for (int y = 0; y < s.h; ++y)
+    for (int x = 0; x < s.w; ++x) {
+      const float d = s.truth[y * s.w + x];
+      if (x - d < 0) continue;  // occluded: the left border band
+      ++score.total;
+      const float v = disparity.at(x, y);
+      if (std::isnan(v) || std::fabs(v - d) > 1.0f) ++score.bad;
+    }
+  return score;
+}
+
 }  // namespace mctstereo::test

@@ -15,16 +15,8 @@ namespace {
 double fraction_within_1px(const Scene& s, const StereoParams& p) {
   Matcher m(s.w, s.h, p);
   m.compute({s.left.data(), s.w, s.h, s.w, PixelFormat::Gray8}, {s.right.data(), s.w, s.h, s.w, PixelFormat::Gray8});
-  long good = 0, total = 0;
-  for (int y = 0; y < s.h; ++y)
-    for (int x = 0; x < s.w; ++x) {
-      const float d = s.truth[y * s.w + x];
-      if (x - d < 0) continue;  // occluded: the left border band
-      ++total;
-      const float v = m.disparity().at(x, y);
-      if (!std::isnan(v) && std::fabs(v - d) <= 1.0f) ++good;
-    }
-  return static_cast<double>(good) / static_cast<double>(total);
+  const CorrespondenceScore score = score_correspondences(s, m.disparity());
+  return static_cast<double>(score.total - score.bad) / static_cast<double>(score.total);
 }
 
 class Synthetic : public ::testing::TestWithParam<std::string> {};

@@ -3,6 +3,7 @@
 // (a still scene, a moving and approaching object, a cut to another scene) no frame is worse than
 // the same frame matched alone by more than noise, and a still scene needs fewer candidates.
 #include <cmath>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -46,19 +47,10 @@ StereoParams temporal(StereoParams p) {
   return p;
 }
 
-// Fraction of the pixels with a correspondence (x - d inside the right view) whose disparity is
-// invalid or more than 1 px off.
+// Fraction of the pixels with a correspondence whose disparity is invalid or more than 1 px off.
 double bad_fraction(const Scene& s, const Matcher& m) {
-  long bad = 0, total = 0;
-  for (int y = 0; y < s.h; ++y)
-    for (int x = 0; x < s.w; ++x) {
-      const float d = s.truth[y * s.w + x];
-      if (x - d < 0) continue;
-      ++total;
-      const float v = m.disparity().at(x, y);
-      if (std::isnan(v) || std::fabs(v - d) > 1.0f) ++bad;
-    }
-  return static_cast<double>(bad) / static_cast<double>(total);
+  const CorrespondenceScore score = score_correspondences(s, m.disparity());
+  return static_cast<double>(score.bad) / static_cast<double>(score.total);
 }
 
 std::vector<std::int16_t> match_alone(const Scene& s, const StereoParams& p) {
@@ -198,47 +190,45 @@ TEST(Temporal, EverySimdTargetEqualsReference) {
 // The candidates of the finest level, per pixel and view.
 double finest_candidates(const Matcher& m) { return m.level_work().front().candidates; }
 
+// Matches `frames` with `preset`'s parameters, with the prior and alone, and checks every frame:
+// the same frame alone is good (< 10 % bad), and the prior makes it worse by 0.5 points at most.
+// Then calls check(f, candidates with the prior, candidates alone) at the finest level.
+void compare_with_frames_alone(const std::vector<Scene>& frames, const char* name,
+                               const std::function<void(std::size_t, double, double)>& check) {
+  SCOPED_TRACE(name);
+  const StereoParams p = temporal(preset(name));
+  StereoParams alone_params = p;
+  alone_params.temporal = false;
+  Matcher seq(kW, kH, p), alone(kW, kH, alone_params);
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    seq.compute(frames[f].left_view(), frames[f].right_view());
+    alone.compute(frames[f].left_view(), frames[f].right_view());
+    const double bad_seq = bad_fraction(frames[f], seq), bad_alone = bad_fraction(frames[f], alone);
+    EXPECT_LT(bad_alone, 0.10) << "frame " << f;
+    EXPECT_LE(bad_seq, bad_alone + 0.005) << "frame " << f;
+    check(f, finest_candidates(seq), finest_candidates(alone));
+  }
+}
+
 TEST(Temporal, StillSceneNeedsFewerCandidatesAndKeepsItsMap) {
-  const std::vector<Scene> frames = still_frames();
   for (const char* name : {"balanced", "quality"}) {
-    SCOPED_TRACE(name);
-    const StereoParams p = temporal(preset(name));
-    StereoParams alone_params = p;
-    alone_params.temporal = false;
-    Matcher seq(kW, kH, p), alone(kW, kH, alone_params);
-    for (std::size_t f = 0; f < frames.size(); ++f) {
-      seq.compute(frames[f].left_view(), frames[f].right_view());
-      alone.compute(frames[f].left_view(), frames[f].right_view());
-      const double bad_seq = bad_fraction(frames[f], seq), bad_alone = bad_fraction(frames[f], alone);
-      EXPECT_LT(bad_alone, 0.10) << "frame " << f;
-      EXPECT_LE(bad_seq, bad_alone + 0.005) << "frame " << f;
+    compare_with_frames_alone(still_frames(), name, [](std::size_t f, double with_prior, double alone) {
       if (f == 0) {
-        EXPECT_EQ(finest_candidates(seq), finest_candidates(alone));
+        EXPECT_EQ(with_prior, alone);
       } else {
         // balanced searches 7 candidates around its prior where the coarse map is flat, quality 13.
-        EXPECT_LT(finest_candidates(seq), 0.7 * finest_candidates(alone)) << "frame " << f;
+        EXPECT_LT(with_prior, 0.7 * alone) << "frame " << f;
       }
-    }
+    });
   }
 }
 
 TEST(Temporal, MotionAndCutAreNoWorseThanEachFrameAlone) {
-  const std::vector<Scene> frames = moving_then_cut_frames();
   for (const char* name : {"balanced", "quality"}) {
-    SCOPED_TRACE(name);
-    const StereoParams p = temporal(preset(name));
-    StereoParams alone_params = p;
-    alone_params.temporal = false;
-    Matcher seq(kW, kH, p), alone(kW, kH, alone_params);
-    for (std::size_t f = 0; f < frames.size(); ++f) {
-      seq.compute(frames[f].left_view(), frames[f].right_view());
-      alone.compute(frames[f].left_view(), frames[f].right_view());
-      const double bad_seq = bad_fraction(frames[f], seq), bad_alone = bad_fraction(frames[f], alone);
-      EXPECT_LT(bad_alone, 0.10) << "frame " << f;
-      EXPECT_LE(bad_seq, bad_alone + 0.005) << "frame " << f;
+    compare_with_frames_alone(moving_then_cut_frames(), name, [](std::size_t f, double with_prior, double alone) {
       // The prior never widens a search.
-      EXPECT_LE(finest_candidates(seq), finest_candidates(alone)) << "frame " << f;
-    }
+      EXPECT_LE(with_prior, alone) << "frame " << f;
+    });
   }
 }
 

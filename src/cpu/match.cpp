@@ -573,9 +573,13 @@ void MatchTile(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t byt
     std::fill_n(made_hi, tw, static_cast<std::int16_t>(ranges.dmax));
   }
   // The temporal prior: the coarser map's band of the temporal radius (per coarse row, as the
-  // band above) and the row's result, which depends on the fine row.
-  alignas(64) std::int16_t narrow_lo[kTile + kRangeSegmentSlack] = {}, narrow_hi[kTile + kRangeSegmentSlack] = {};
-  alignas(64) std::int16_t row_lo[kTile + kRangeSegmentSlack] = {}, row_hi[kTile + kRangeSegmentSlack] = {};
+  // band above) and the row's result, which depends on the fine row. Zeroed (as the buffers above)
+  // only when the prior is on: a tile without it does not touch them.
+  alignas(64) std::int16_t narrow_lo[kTile + kRangeSegmentSlack], narrow_hi[kTile + kRangeSegmentSlack];
+  alignas(64) std::int16_t row_lo[kTile + kRangeSegmentSlack], row_hi[kTile + kRangeSegmentSlack];
+  if (ranges.with_temporal())
+    for (std::int16_t* buffer : {narrow_lo, narrow_hi, row_lo, row_hi})
+      std::fill_n(buffer, kTile + kRangeSegmentSlack, std::int16_t{0});
   int made_cy = -1;
   int umin = INT16_MAX, umax = INT16_MIN;
   for (int r = 0; r < th; ++r) {

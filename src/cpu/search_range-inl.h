@@ -24,6 +24,40 @@ namespace mctstereo::detail::cpu::HWY_NAMESPACE {
 /// Values past the end that PriorRangeSegment may write: its outputs must have this much room.
 inline constexpr int kRangeSegmentSlack = 64;
 
+// Column minima and maxima of a Q4 map over three rows, for the columns [k_begin, k_end), into
+// col_min[k - origin] and col_max[k - origin] (whole vectors: up to a vector past k_end). kInvalid
+// (INT16_MIN) never wins a maximum over a valid value; for the minimum it is replaced by INT16_MAX.
+// A column without valid values leaves INT16_MAX / INT16_MIN, which lose against any valid
+// neighbour; the callers discard the result where the centre pixel is invalid. Loads past the
+// row's end stay inside its 64-byte slack; their lanes are not used.
+template <class D>
+inline void ThreeRowExtrema(D d, const std::int16_t* above, const std::int16_t* centre, const std::int16_t* below,
+                            int k_begin, int k_end, int origin, std::int16_t* HWY_RESTRICT col_min,
+                            std::int16_t* HWY_RESTRICT col_max) {
+  namespace hn = hwy::HWY_NAMESPACE;
+  const auto invalid = hn::Set(d, kInvalid);
+  const auto largest = hn::Set(d, std::numeric_limits<std::int16_t>::max());
+  const auto for_min = [&](hn::Vec<D> v) { return hn::IfThenElse(hn::Eq(v, invalid), largest, v); };
+  for (int k = k_begin; k < k_end; k += static_cast<int>(hn::Lanes(d))) {
+    const auto a = hn::LoadU(d, above + k), b = hn::LoadU(d, centre + k), c = hn::LoadU(d, below + k);
+    hn::StoreU(hn::Min(hn::Min(for_min(a), for_min(b)), for_min(c)), d, col_min + (k - origin));
+    hn::StoreU(hn::Max(hn::Max(a, b), c), d, col_max + (k - origin));
+  }
+}
+
+// The minimum of ThreeRowExtrema's minima i - 1, i and i + 1, and the maximum of its maxima: the
+// 3x3 extrema. (Two functions returning vectors: SVE vectors cannot sit in a struct.)
+template <class D>
+inline hwy::HWY_NAMESPACE::Vec<D> ThreeColumnMin(D d, const std::int16_t* col_min, int i) {
+  namespace hn = hwy::HWY_NAMESPACE;
+  return hn::Min(hn::Min(hn::LoadU(d, col_min + i - 1), hn::LoadU(d, col_min + i)), hn::LoadU(d, col_min + i + 1));
+}
+template <class D>
+inline hwy::HWY_NAMESPACE::Vec<D> ThreeColumnMax(D d, const std::int16_t* col_max, int i) {
+  namespace hn = hwy::HWY_NAMESPACE;
+  return hn::Max(hn::Max(hn::LoadU(d, col_max + i - 1), hn::LoadU(d, col_max + i)), hn::LoadU(d, col_max + i + 1));
+}
+
 // Ranges of the fine columns [x_begin, x_end) of a row that reads coarse row cy (x_begin even),
 // into lo_out[x - x_begin] and hi_out[x - x_begin]. Fine column x reads coarse column
 // min(x / 2, cw - 1). Whole vectors are written, up to kRangeSegmentSlack values past x_end:
@@ -51,7 +85,6 @@ inline void PriorRangeSegment(const Plane<std::int16_t>& coarse, int cy, int x_b
   const std::int16_t* centre = coarse.row(cy);
   const std::int16_t* below = coarse.row(clamp_index(cy + 1, ch));
   const auto invalid = hn::Set(d, kInvalid);
-  const auto largest = hn::Set(d, std::numeric_limits<std::int16_t>::max());
   const auto vmin = hn::Set(d, static_cast<std::int16_t>(dmin));
   const auto vmax = hn::Set(d, static_cast<std::int16_t>(dmax));
   const auto vr = hn::Set(d, static_cast<std::int16_t>(std::clamp(radius, -32768, 32767)));
@@ -69,25 +102,12 @@ inline void PriorRangeSegment(const Plane<std::int16_t>& coarse, int cy, int x_b
   int c0 = c_first;
   for (;; c0 += kChunk) {
     const int c1 = std::min(c0 + kChunk, c_last + 1);
-    // Column minima and maxima over the three rows. kInvalid (INT16_MIN) never wins a maximum over
-    // a valid value; for the minimum it is replaced by INT16_MAX. A column without valid values
-    // leaves INT16_MAX / INT16_MIN, which lose against any valid neighbour; if the centre is
-    // valid there is one, and if it is not the result is discarded.
-    for (int k = std::max(c0 - 1, 0); k < std::min(c1 + 1, cw); k += n) {
-      const auto a = hn::LoadU(d, above + k), b = hn::LoadU(d, centre + k), c = hn::LoadU(d, below + k);
-      auto for_min = [&](hn::Vec<decltype(d)> v) { return hn::IfThenElse(hn::Eq(v, invalid), largest, v); };
-      hn::StoreU(hn::Min(hn::Min(for_min(a), for_min(b)), for_min(c)), d, col_min + (k - c0 + 1));
-      hn::StoreU(hn::Max(hn::Max(a, b), c), d, col_max + (k - c0 + 1));
-    }
+    ThreeRowExtrema(d, above, centre, below, std::max(c0 - 1, 0), std::min(c1 + 1, cw), c0 - 1, col_min, col_max);
     if (c0 == 0) col_min[0] = col_min[1], col_max[0] = col_max[1];  // column -1 repeats column 0
     if (c1 == cw) col_min[cw - c0 + 1] = col_min[cw - c0], col_max[cw - c0 + 1] = col_max[cw - c0];
 
     for (int k = c0; k < c1; k += n) {
-      const int i = k - c0 + 1;
-      const auto mn = hn::Min(hn::Min(hn::LoadU(d, col_min + i - 1), hn::LoadU(d, col_min + i)),
-                              hn::LoadU(d, col_min + i + 1));
-      const auto mx = hn::Max(hn::Max(hn::LoadU(d, col_max + i - 1), hn::LoadU(d, col_max + i)),
-                              hn::LoadU(d, col_max + i + 1));
+      const auto mn = ThreeColumnMin(d, col_min, k - c0 + 1), mx = ThreeColumnMax(d, col_max, k - c0 + 1);
       const auto mn_px = hn::ShiftRight<4>(mn), mx_px = hn::ShiftRight<4>(mx);  // floor, as v >> 4
       const auto lo = hn::Min(hn::Max(vmin, hn::SaturatedSub(hn::Add(mn_px, mn_px), vr)), vmax);
       const auto hi = hn::Max(hn::Min(vmax, hn::SaturatedAdd(hn::Add(mx_px, mx_px), vr)), vmin);
@@ -160,7 +180,6 @@ inline void TemporalRangeSegment(const TemporalPrior& t, int y, int x_begin, int
   const std::uint8_t* previous_image = t.previous_image->row(y);
   const auto threshold = hn::Set(d, static_cast<std::int16_t>(t.threshold));
   const auto invalid = hn::Set(d, kInvalid);
-  const auto largest = hn::Set(d, std::numeric_limits<std::int16_t>::max());
   const auto vmin = hn::Set(d, static_cast<std::int16_t>(dmin));
   const auto vmax = hn::Set(d, static_cast<std::int16_t>(dmax));
   const auto vr = hn::Set(d, static_cast<std::int16_t>(t.radius));
@@ -168,23 +187,13 @@ inline void TemporalRangeSegment(const TemporalPrior& t, int y, int x_begin, int
   // column x_begin - 1. Vectors may run a vector past the last entry needed.
   HWY_ALIGN std::int16_t col_min[kTemporalSegment + 2 + kMaxLanes];
   HWY_ALIGN std::int16_t col_max[kTemporalSegment + 2 + kMaxLanes];
-  const int first = std::max(x_begin - 1, 0), last = std::min(x_end + 1, w);
-  for (int k = first; k < last; k += n) {
-    // Loads past the row's end stay inside its 64-byte slack; their lanes are not used.
-    const auto a = hn::LoadU(d, above + k), b = hn::LoadU(d, centre + k), c = hn::LoadU(d, below + k);
-    auto for_min = [&](hn::Vec<decltype(d)> v) { return hn::IfThenElse(hn::Eq(v, invalid), largest, v); };
-    hn::StoreU(hn::Min(hn::Min(for_min(a), for_min(b)), for_min(c)), d, col_min + (k - x_begin + 1));
-    hn::StoreU(hn::Max(hn::Max(a, b), c), d, col_max + (k - x_begin + 1));
-  }
+  ThreeRowExtrema(d, above, centre, below, std::max(x_begin - 1, 0), std::min(x_end + 1, w), x_begin - 1, col_min,
+                  col_max);
   if (x_begin == 0) col_min[0] = col_min[1], col_max[0] = col_max[1];  // column -1 repeats column 0
   if (x_end == w) col_min[w - x_begin + 1] = col_min[w - x_begin], col_max[w - x_begin + 1] = col_max[w - x_begin];
 
   for (int x = x_begin; x < x_end; x += n) {
-    const int i = x - x_begin + 1;
-    const auto mn = hn::Min(hn::Min(hn::LoadU(d, col_min + i - 1), hn::LoadU(d, col_min + i)),
-                            hn::LoadU(d, col_min + i + 1));
-    const auto mx = hn::Max(hn::Max(hn::LoadU(d, col_max + i - 1), hn::LoadU(d, col_max + i)),
-                            hn::LoadU(d, col_max + i + 1));
+    const auto mn = ThreeColumnMin(d, col_min, x - x_begin + 1), mx = ThreeColumnMax(d, col_max, x - x_begin + 1);
     const auto mn_px = hn::ShiftRight<4>(mn);                                  // floor, as v >> 4
     const auto mx_px = hn::ShiftRight<4>(hn::Add(mx, hn::Set(d, int16_t{15})));  // ceiling
     const auto t_lo = hn::Min(hn::Max(vmin, hn::Sub(mn_px, vr)), vmax);

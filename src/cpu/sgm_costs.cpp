@@ -177,10 +177,9 @@ struct TemporalRows {
   std::int16_t *band_lo, *band_hi, *narrow_lo, *narrow_hi, *lo, *hi;
 };
 
-// The temporal prior's band of every pixel of row y before the clip to the image
-// (with_temporal_prior()), into rows.lo and rows.hi.
-void TemporalRowBands(const SgmBandConfig& config, int w, int y, int cw, const CoarseRowBands& coarse,
-                      const TemporalRows& rows) {
+// The coarse row's bands of both radii per fine pixel x (coarse column min(x / 2, cw - 1)), as
+// the temporal prior reads them: made once per coarse row, which serves two fine rows.
+void ReplicateCoarseBands(int w, int cw, const CoarseRowBands& coarse, const TemporalRows& rows) {
   for (int x = 0; x < w; ++x) {
     const int cx = std::min(x / 2, cw - 1);
     rows.band_lo[x] = static_cast<std::int16_t>(coarse.lo[cx]);
@@ -188,6 +187,11 @@ void TemporalRowBands(const SgmBandConfig& config, int w, int y, int cw, const C
     rows.narrow_lo[x] = static_cast<std::int16_t>(coarse.narrow_lo[cx]);
     rows.narrow_hi[x] = static_cast<std::int16_t>(coarse.narrow_hi[cx]);
   }
+}
+
+// The temporal prior's band of every pixel of row y before the clip to the image
+// (with_temporal_prior()), into rows.lo and rows.hi, from ReplicateCoarseBands()'s rows.
+void TemporalRowBands(const SgmBandConfig& config, int w, int y, const TemporalRows& rows) {
   // Segments may write past their end: each later one rewrites what the one before spilled.
   for (int x = 0; x < w; x += kTemporalSegment)
     TemporalRangeSegment(config.temporal, y, x, std::min(x + kTemporalSegment, w), config.dmin, config.dmax,
@@ -196,10 +200,10 @@ void TemporalRowBands(const SgmBandConfig& config, int w, int y, int cw, const C
 }
 
 // The band of every pixel of row y (sgm_band_at()), from the coarse row's bands (null: no prior),
-// or with the temporal prior from TemporalRowBands()'s rows.
+// with the temporal prior from ReplicateCoarseBands()'s rows through TemporalRowBands().
 void RowBands(const SgmBandConfig& config, int w, int y, int cw, const CoarseRowBands* coarse,
               const TemporalRows* temporal, std::int16_t* lo_row, std::int16_t* count_row) {
-  if (temporal != nullptr) TemporalRowBands(config, w, y, cw, *coarse, *temporal);
+  if (temporal != nullptr) TemporalRowBands(config, w, y, *temporal);
   for (int x = 0; x < w; ++x) {
     int lo = config.dmin, hi = config.dmax, centre = (config.dmin + config.dmax) >> 1;
     if (coarse != nullptr) {
@@ -249,8 +253,10 @@ void SgmCosts(const CensusCodes& left, const CensusCodes& right, const Plane<std
         for (int y = y0; y < y1; ++y) {
           if (coarse != nullptr) {
             const int cy = std::min(y / 2, coarse->height() - 1);
-            if (cy != last_cy)
+            if (cy != last_cy) {
               coarse_bands(*coarse, config, cy, lo_c, hi_c, centre_c, col_min, col_max, narrow_lo_c, narrow_hi_c);
+              if (temporal) ReplicateCoarseBands(w, cw, row_bands, temporal_rows);
+            }
             last_cy = cy;
           }
           RowBands(config, w, y, cw, coarse != nullptr ? &row_bands : nullptr, temporal ? &temporal_rows : nullptr,
