@@ -68,7 +68,7 @@ the outputs are then in the rectified left frame.
 --temporal: each frame's finer levels also search around the previous frame's maps; where a pixel
 is still (gray change <= --temporal-threshold) and those maps agree with the coarser level, the
 search narrows to both (fewer candidates on a still scene); where the scene moves or cuts it stays
-as without them (docs/PIPELINE.md, "Temporal prior"; cpu backend).
+as without them (docs/PIPELINE.md, "Temporal prior"; every backend).
 Capture, matching and writing run on their own threads. The summary line (stdout) gives the frames,
 the latency from a frame's capture to its outputs being written (mean, 95th percentile), the
 median matching time, the frame rate and the last frame's candidates per pixel at the finest
@@ -807,12 +807,14 @@ class FramePipeline {
 };
 
 // The candidates per pixel of the last frame's finest level (host backends), and with the
-// temporal prior whether that frame used it.
+// temporal prior whether that frame used it (every backend).
 std::string finest_candidates(const Matcher& matcher, const StereoParams& params) {
   const std::vector<LevelWork> work = matcher.level_work();
-  if (work.empty()) return {};
+  const std::string temporal =
+      !params.temporal ? "" : matcher.used_temporal_prior() ? "temporal prior" : "temporal prior not used";
+  if (work.empty()) return temporal.empty() ? "" : "; last frame: " + temporal;
   std::string text = "; last frame: " + fixed(work.front().candidates, 2) + " candidates per pixel at the finest level";
-  if (params.temporal) text += matcher.used_temporal_prior() ? " (temporal prior)" : " (temporal prior not used)";
+  if (!temporal.empty()) text += " (" + temporal + ")";
   return text;
 }
 

@@ -168,12 +168,6 @@ struct Matcher::Impl {
     const std::string err = p.validate(w, h);
     if (!err.empty()) throw std::invalid_argument(err);
     if (o.threads < 0) throw std::invalid_argument("threads = " + std::to_string(o.threads) + " must be >= 0");
-    if (p.temporal && backend == Backend::OpenCL)
-      throw std::invalid_argument("temporal: the opencl backend has no temporal prior; use the cpu backend");
-    if (p.temporal && backend == Backend::Auto) {
-      backend = Backend::Cpu;
-      notice = "the temporal prior runs on the cpu backend only: running on the cpu backend";
-    }
     resolve_backend();
     stages = backend == Backend::Reference ? &kReferenceStages : &kCpuStages;
     threads = backend == Backend::Reference ? 1 : (o.threads > 0 ? o.threads : default_threads());
@@ -629,8 +623,18 @@ Matcher::Matcher(Matcher&&) noexcept = default;
 Matcher& Matcher::operator=(Matcher&&) noexcept = default;
 
 void Matcher::compute(const ImageView& left, const ImageView& right) { impl_->compute(left, right); }
-void Matcher::reset_temporal() { impl_->temporal_history = false; }
-bool Matcher::used_temporal_prior() const { return impl_->used_previous; }
+void Matcher::reset_temporal() {
+  impl_->temporal_history = false;
+#ifdef MCTSTEREO_HAVE_OPENCL
+  if (impl_->device) impl_->device->reset_temporal();
+#endif
+}
+bool Matcher::used_temporal_prior() const {
+#ifdef MCTSTEREO_HAVE_OPENCL
+  if (impl_->device) return impl_->device->used_temporal_prior();
+#endif
+  return impl_->used_previous;
+}
 
 MapView<const std::int16_t> Matcher::disparity_q4() const {
   const auto& p = impl_->out_q4[0];

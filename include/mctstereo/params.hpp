@@ -143,8 +143,8 @@ struct StereoParams {
   /// that band and the coarser map's band narrowed to temporal_radius; elsewhere (motion, a cut) it
   /// searches as without the prior. A pixel never searches more than
   /// without it, so a still scene needs fewer candidates and a new one the same. Only levels whose
-  /// radius exceeds temporal_radius change. cpu and reference backends; Matcher::reset_temporal()
-  /// drops the history.
+  /// radius exceeds temporal_radius change. Every backend; Matcher::reset_temporal() drops the
+  /// history.
   bool temporal = false;
   /// Radius of both narrowed bands of the temporal prior, pixels of the level. Range [0, 16].
   int temporal_radius = 1;

@@ -62,7 +62,7 @@ Match::Match(Runtime& rt, int code_words, const MatchConfig& config, bool margin
 
 void Match::run(const DeviceCodes& ref, const DeviceCodes& other, const DevicePlane<std::int16_t>* prior, int dmin,
                 int dmax, int radius, int dir, DevicePlane<std::int16_t>& disparity,
-                DevicePlane<std::uint8_t>* margin) {
+                DevicePlane<std::uint8_t>* margin, const DeviceTemporal* temporal) {
   if (dir != -1 && dir != 1) throw std::invalid_argument("match: dir " + std::to_string(dir) + " is not -1 or +1");
   if (ref.words != code_words_ || other.words != code_words_)
     throw std::invalid_argument("match: census codes of " + std::to_string(ref.words) + " and " +
@@ -87,6 +87,7 @@ void Match::run(const DeviceCodes& ref, const DeviceCodes& other, const DevicePl
                                 size_text(w, h));
   if (prior != nullptr && (prior->width < 1 || prior->height < 1))
     throw std::invalid_argument("match: empty prior " + size_text(prior->width, prior->height));
+  if (temporal != nullptr) check_temporal("match", *temporal, w, h);
   if (w == 0 || h == 0) return;
 
   // Planes beyond `words` are never read; the first stands in for them.
@@ -105,6 +106,7 @@ void Match::run(const DeviceCodes& ref, const DeviceCodes& other, const DevicePl
     set_args_from(20, margin->buffer, margin->stride);
   else
     set_args_from(20, NoBuffer{}, 0);
+  set_temporal_args(22, temporal);
   // One work-item per 16 columns x `rows_` rows; the kernel skips work-items beyond the image.
   const std::size_t strips_x = (w + 15) / 16, strips_y = (h + rows_ - 1) / rows_;
   enqueue(cl::NDRange(round_up(strips_x, local_[0]), round_up(strips_y, local_[1])), local_, "match");
@@ -115,15 +117,17 @@ void Match::run(const DeviceCodes& ref, const DeviceCodes& other, const DevicePl
 void match_with_layout(Runtime& rt, const DeviceCodes& ref, const DeviceCodes& other,
                        const DevicePlane<std::int16_t>* prior, int dmin, int dmax, int radius,
                        const MatchConfig& config, Popcount popcount, bool gpu_layout,
-                       DevicePlane<std::int16_t>& disparity, DevicePlane<std::uint8_t>* margin) {
+                       DevicePlane<std::int16_t>& disparity, DevicePlane<std::uint8_t>* margin,
+                       const DeviceTemporal* temporal) {
   Match(rt, ref.words, config, margin != nullptr, popcount, gpu_layout)
-      .run(ref, other, prior, dmin, dmax, radius, config.dir, disparity, margin);
+      .run(ref, other, prior, dmin, dmax, radius, config.dir, disparity, margin, temporal);
 }
 
 void match(Runtime& rt, const DeviceCodes& ref, const DeviceCodes& other, const DevicePlane<std::int16_t>* prior,
            int dmin, int dmax, int radius, const MatchConfig& config, Popcount popcount,
-           DevicePlane<std::int16_t>& disparity, DevicePlane<std::uint8_t>* margin) {
-  match_with_layout(rt, ref, other, prior, dmin, dmax, radius, config, popcount, rt.device().gpu, disparity, margin);
+           DevicePlane<std::int16_t>& disparity, DevicePlane<std::uint8_t>* margin, const DeviceTemporal* temporal) {
+  match_with_layout(rt, ref, other, prior, dmin, dmax, radius, config, popcount, rt.device().gpu, disparity, margin,
+                    temporal);
 }
 
 }  // namespace mctstereo::detail::opencl

@@ -106,6 +106,9 @@ struct Pipeline::Level : LevelSpec {
   Plane<std::int16_t> host;     // the map on its way through speckle removal
   std::optional<Match> match;   // box aggregation: this level's SHD window, sub-pixel at the finest only
   DeviceSgmVolume sgm;          // band SGM: its band, costs and sums (storage shared by the levels)
+  // The temporal prior: this level's maps and images of the previous frame.
+  DevicePlane<std::int16_t> previous[2];
+  DevicePlane<std::uint8_t> previous_image[2];
 };
 
 // The other stages the parameters use, one object per kernel; those they do not use stay empty.
@@ -275,6 +278,10 @@ void Pipeline::allocate() {
       plane(L.disparity[v], lw, lh);
       if (L.refine) plane(L.scratch[v], lw, lh);
     }
+    for (int v = 0; v < L.temporal_views(); ++v) {
+      plane(L.previous[v], lw, lh);
+      plane(L.previous_image[v], lw, lh);
+    }
     if (L.refine && L.speckle > 1) L.host.reset(lw, lh);
     if (L.is_sgm) allocate_sgm_planes(L);
   }
@@ -384,10 +391,35 @@ void Pipeline::run_levels() {
       const DevicePlane<std::int16_t>* prior = coarsest ? nullptr : &levels_[l + 1].disparity[v];
       const bool margins_here = v == 0 && l == 0 && want_confidence_ && margin_level_ == 0;
       DevicePlane<std::uint8_t>* margin = margins_here ? &margin_ : nullptr;
+      const DeviceTemporal temporal = temporal_prior(l, v);
       L.match->run(L.codes[v], L.codes[1 - v], prior, L.dmin, L.dmax, L.radius, v == 0 ? -1 : +1, L.disparity[v],
-                   margin);
+                   margin, temporal.map != nullptr ? &temporal : nullptr);
     }
     if (L.refine) refine(L, l == 0);
+  }
+}
+
+// The temporal prior of view v at level l (Matcher::Impl::temporal_prior): none (a null map)
+// unless this frame has the last one's maps.
+DeviceTemporal Pipeline::temporal_prior(int l, int v) const {
+  const Level& L = levels_[l];
+  if (!used_previous_ || v >= L.temporal_views()) return {};
+  return {&L.previous[v], &level_image(l, v), &L.previous_image[v], params_.temporal_radius,
+          params_.temporal_threshold};
+}
+
+// The last frame's maps and images of the levels the temporal prior narrows become this frame's
+// previous ones (Matcher::Impl::take_previous_maps): swaps of the device planes, before the upload
+// writes the new gray images.
+void Pipeline::take_previous_maps() {
+  used_previous_ = params_.temporal && temporal_history_;
+  if (!used_previous_) return;
+  for (std::size_t l = 0; l < levels_.size(); ++l) {
+    Level& L = levels_[l];
+    for (int v = 0; v < L.temporal_views(); ++v) {
+      std::swap(L.disparity[v], L.previous[v]);
+      std::swap(l == 0 ? full_gray_[v].back() : L.image[v], L.previous_image[v]);
+    }
   }
 }
 
@@ -396,7 +428,9 @@ void Pipeline::run_levels() {
 void Pipeline::match_sgm(int l, const DevicePlane<std::int16_t>* prior) {
   Level& L = levels_[l];
   const SgmBandConfig band{L.dmin, L.dmax, L.radius, params_.prior_size, L.sgm.band, {}};
-  stages_->sgm_costs->run(L.codes[0], L.codes[1], prior, band, L.shd_window, L.sgm);
+  const DeviceTemporal temporal = temporal_prior(l, 0);
+  stages_->sgm_costs->run(L.codes[0], L.codes[1], prior, band, L.shd_window, L.sgm,
+                          temporal.map != nullptr ? &temporal : nullptr);
   const SgmPathConfig paths{params_.sgm_paths(), params_.sgm_p1, params_.sgm_p2, params_.sgm_p2_k};
   stages_->sgm_aggregate->run(level_image(l, 0), paths, L.sgm);
   const SgmSelectConfig select{params_.subpixel && l == 0, params_.uniqueness_ratio};
@@ -479,6 +513,7 @@ void Pipeline::compute(const ImageView& left, const ImageView& right, Plane<std:
   try {
     rt_->reset_times();
     speckle_ms_ = 0;
+    take_previous_maps();
     upload_input(left, 0);
     upload_input(right, 1);
     upload_ms = clock.lap_ms();
@@ -490,6 +525,7 @@ void Pipeline::compute(const ImageView& left, const ImageView& right, Plane<std:
     for (int v = 0; v < (options_.compute_right ? 2 : 1); ++v) download(*rt_, out_q4_[v], q4[v]);
     download_ms = clock.lap_ms();
     frame_ms = frame.lap_ms();
+    temporal_history_ = params_.temporal;
   } catch (const cl::Error& e) {
     rethrow_cl(rt_->device(), e);
   }

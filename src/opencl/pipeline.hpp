@@ -48,6 +48,10 @@ class Pipeline {
   std::string device_name() const;
   /// Bytes of device memory the buffers take.
   std::size_t device_bytes() const { return device_bytes_; }
+  /// The temporal prior (StereoParams::temporal): the next frame is matched alone.
+  void reset_temporal() { temporal_history_ = false; }
+  /// The last frame was matched with the temporal prior.
+  bool used_temporal_prior() const { return used_previous_; }
 
  private:
   struct Level;
@@ -58,6 +62,8 @@ class Pipeline {
   void allocate_sgm_planes(Level& L);
   void allocate_sgm_storage();
   void run_levels();
+  DeviceTemporal temporal_prior(int l, int v) const;
+  void take_previous_maps();
   void match_sgm(int l, const DevicePlane<std::int16_t>* prior);
   void refine(Level& L, bool finest);
   void remove_speckles_on_host(Level& L, int view, int speckle);
@@ -93,6 +99,11 @@ class Pipeline {
   SpeckleScratch speckle_scratch_;  // speckle removal runs on the host
   double speckle_ms_ = 0;
   std::vector<StageTime> timings_;  // filled in place: a frame only changes the times
+  // The temporal prior: the levels' maps of the last frame can serve the next one (none after
+  // construction, whose blank frame does not count, and reset_temporal()), and the last frame
+  // was matched with them.
+  bool temporal_history_ = false;
+  bool used_previous_ = false;
 };
 
 }  // namespace mctstereo::detail::opencl

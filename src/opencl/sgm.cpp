@@ -34,7 +34,8 @@ void check_size(const char* stage, const char* what, int w, int h, int want_w, i
 SgmCosts::SgmCosts(Runtime& rt, Popcount popcount) : StageKernel(rt, "sgm", "sgm_costs", sgm_options(popcount)) {}
 
 void SgmCosts::run(const DeviceCodes& left, const DeviceCodes& right, const DevicePlane<std::int16_t>* prior,
-                   const SgmBandConfig& config, int shd_window, DeviceSgmVolume& volume) {
+                   const SgmBandConfig& config, int shd_window, DeviceSgmVolume& volume,
+                   const DeviceTemporal* temporal) {
   const int w = volume.width, h = volume.height;
   for (const DeviceCodes* codes : {&left, &right})
     for (int k = 0; k < codes->words; ++k) {
@@ -48,6 +49,7 @@ void SgmCosts::run(const DeviceCodes& left, const DeviceCodes& right, const Devi
   if (config.max_band > volume.band)
     throw std::invalid_argument("sgm_costs: bands of " + std::to_string(config.max_band) + " for a volume of " +
                                 std::to_string(volume.band));
+  if (temporal != nullptr) check_temporal("sgm_costs", *temporal, w, h);
   if (w == 0 || h == 0) return;
   const auto word = [](const DeviceCodes& codes, int k) -> const cl::Buffer& {
     return codes.plane[k < codes.words ? k : 0].buffer;
@@ -60,6 +62,7 @@ void SgmCosts::run(const DeviceCodes& left, const DeviceCodes& right, const Devi
     set_args_from(10, NoBuffer{}, 0, 0, 0);
   set_args_from(14, config.dmin, config.dmax, config.radius, config.prior_size, config.max_band, shd_window / 2,
                 volume.lo.buffer, volume.count.buffer, volume.lo.stride, volume.cost, volume.stride);
+  set_temporal_args(25, temporal);
   enqueue(pixels_of(w, h), cl::NDRange(16, 4), "match");
 }
 

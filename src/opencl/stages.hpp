@@ -11,8 +11,10 @@
 #pragma once
 
 #include <memory>
+#include <stdexcept>
 #include <string>
 #include <string_view>
+#include <tuple>
 
 #include "opencl/runtime.hpp"
 #include "../stages.hpp"  // src/stages.hpp (a plain "stages.hpp" would name this file)
@@ -39,6 +41,28 @@ struct DeviceImage {
 /// A `__global` pointer argument given no buffer: the kernel is told not to touch it.
 struct NoBuffer {};
 
+/// The temporal prior of one view at one level (TemporalPrior of src/stages.hpp) on the device:
+/// the view's map of the previous frame at the level, the level's gray image now and then.
+struct DeviceTemporal {
+  const DevicePlane<std::int16_t>* map = nullptr;
+  const DevicePlane<std::uint8_t>* image = nullptr;
+  const DevicePlane<std::uint8_t>* previous_image = nullptr;
+  int radius = 0, threshold = 0;
+};
+
+/// std::invalid_argument naming `stage` unless the temporal prior's planes are all w x h.
+inline void check_temporal(const char* stage, const DeviceTemporal& t, int w, int h) {
+  if (t.map == nullptr || t.image == nullptr || t.previous_image == nullptr)
+    throw std::invalid_argument(std::string(stage) + ": a temporal prior without its map or images");
+  for (const auto& [what, pw, ph] : {std::tuple{"previous map", t.map->width, t.map->height},
+                                     std::tuple{"image", t.image->width, t.image->height},
+                                     std::tuple{"previous image", t.previous_image->width, t.previous_image->height}})
+    if (pw != w || ph != h)
+      throw std::invalid_argument(std::string(stage) + ": the temporal prior's " + what + " is " + std::to_string(pw) +
+                                  " x " + std::to_string(ph) + " for a level of " + std::to_string(w) + " x " +
+                                  std::to_string(h));
+}
+
 /// What every stage holds: its runtime and its kernel. OpenCL takes a kernel's argument values
 /// when it is enqueued, so one kernel object serves every call of a frame (each level, each view).
 class StageKernel {
@@ -58,6 +82,16 @@ class StageKernel {
   template <typename... Args>
   void set_args(const Args&... args) {
     set_args_from(0, args...);
+  }
+  /// The temporal prior's arguments from `first` on (map, its stride, image, its stride, previous
+  /// image, its stride, radius, threshold); null: a null map (no prior).
+  void set_temporal_args(cl_uint first, const DeviceTemporal* t) {
+    if (t == nullptr) {
+      set_args_from(first, NoBuffer{}, 0, NoBuffer{}, 0, NoBuffer{}, 0, 0, 0);
+      return;
+    }
+    set_args_from(first, t->map->buffer, t->map->stride, t->image->buffer, t->image->stride,
+                  t->previous_image->buffer, t->previous_image->stride, t->radius, t->threshold);
   }
   /// Enqueues the kernel over `global` in work-groups of `local`.
   void enqueue(const cl::NDRange& global, const cl::NDRange& local, const char* label) {
@@ -120,9 +154,10 @@ class Match : StageKernel {
  public:
   /// margin: the kernel can also write the winners' margins (reference::match's margin).
   Match(Runtime& rt, int code_words, const MatchConfig& config, bool margin, Popcount popcount, bool gpu_layout);
+  /// temporal: the temporal prior around the previous frame's map (used only with a prior), or null.
   void run(const DeviceCodes& ref, const DeviceCodes& other, const DevicePlane<std::int16_t>* prior, int dmin,
            int dmax, int radius, int dir, DevicePlane<std::int16_t>& disparity,
-           DevicePlane<std::uint8_t>* margin = nullptr);
+           DevicePlane<std::uint8_t>* margin = nullptr, const DeviceTemporal* temporal = nullptr);
 
  private:
   int code_words_;
@@ -200,9 +235,11 @@ struct DeviceSgmVolume {
 class SgmCosts : StageKernel {
  public:
   SgmCosts(Runtime& rt, Popcount popcount);
-  /// prior == nullptr: the whole range (the coarsest level).
+  /// prior == nullptr: the whole range (the coarsest level). temporal: the left view's temporal
+  /// prior (used only with a prior), or null; config.temporal (host planes) is not read.
   void run(const DeviceCodes& left, const DeviceCodes& right, const DevicePlane<std::int16_t>* prior,
-           const SgmBandConfig& config, int shd_window, DeviceSgmVolume& volume);
+           const SgmBandConfig& config, int shd_window, DeviceSgmVolume& volume,
+           const DeviceTemporal* temporal = nullptr);
 };
 
 /// reference::sgm_aggregate: one enqueue per path direction, a work-item per path line.
@@ -271,7 +308,8 @@ void census_transform(Runtime& rt, const DevicePlane<std::uint8_t>& image, const
 /// With the work layout of the device (a GPU's or a CPU device's).
 void match(Runtime& rt, const DeviceCodes& ref, const DeviceCodes& other, const DevicePlane<std::int16_t>* prior,
            int dmin, int dmax, int radius, const MatchConfig& config, Popcount popcount,
-           DevicePlane<std::int16_t>& disparity, DevicePlane<std::uint8_t>* margin = nullptr);
+           DevicePlane<std::int16_t>& disparity, DevicePlane<std::uint8_t>* margin = nullptr,
+           const DeviceTemporal* temporal = nullptr);
 void median_filter(Runtime& rt, const DevicePlane<std::int16_t>& src, int k, DevicePlane<std::int16_t>& dst);
 void lr_check(Runtime& rt, const DevicePlane<std::int16_t>& src, const DevicePlane<std::int16_t>& other, int dir,
               int threshold_q4, DevicePlane<std::int16_t>& dst);

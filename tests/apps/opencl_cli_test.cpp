@@ -104,6 +104,25 @@ TEST_F(OpenclCli, MatchOnOpenclWritesTheCpuBackendsFiles) {
   EXPECT_FALSE(contains(ocl.output, "SIMD")) << ocl.output;
 }
 
+// stream --temporal on the device: the same files as on the cpu backend, frame after frame, and
+// the summary says that the last frame took the prior.
+TEST_F(OpenclCli, StreamWithTheTemporalPriorWritesTheCpuBackendsFiles) {
+  SKIP_WITHOUT_OPENCL_DEVICE();
+  fs::create_directories(folder_ / "cpu");
+  fs::create_directories(folder_ / "ocl");
+  const std::string stream = "stream --synthetic 96x64 --max-frames 4 --preset quality --num-disparities 24 --temporal ";
+  const Result ocl = run(stream + "--backend opencl --device 0 --disparity 'ocl/d%d.pfm'");
+  ASSERT_EQ(ocl.status, 0) << ocl.output;
+  const Result cpu = run(stream + "--backend cpu --disparity 'cpu/d%d.pfm'");
+  ASSERT_EQ(cpu.status, 0) << cpu.output;
+  EXPECT_TRUE(contains(ocl.output, "last frame: temporal prior")) << ocl.output;
+  for (int f = 0; f < 4; ++f) {
+    const std::string name = "d" + std::to_string(f) + ".pfm";
+    EXPECT_GT(read_text(folder_ / "ocl" / name).size(), 96u * 64u * 4u) << name;
+    EXPECT_EQ(read_text(folder_ / "ocl" / name), read_text(folder_ / "cpu" / name)) << name;
+  }
+}
+
 TEST_F(OpenclCli, UnknownDeviceFailsListingTheDevices) {
   SKIP_WITHOUT_OPENCL_DEVICE();
   const Result r = run(kPair + "-o d.pfm --backend opencl --device 999");

@@ -16,7 +16,8 @@ namespace mctstereo::detail::opencl {
 void match_with_layout(Runtime& rt, const DeviceCodes& ref, const DeviceCodes& other,
                        const DevicePlane<std::int16_t>* prior, int dmin, int dmax, int radius,
                        const MatchConfig& config, Popcount popcount, bool gpu_layout,
-                       DevicePlane<std::int16_t>& disparity, DevicePlane<std::uint8_t>* margin);
+                       DevicePlane<std::int16_t>& disparity, DevicePlane<std::uint8_t>* margin,
+                       const DeviceTemporal* temporal);
 }  // namespace mctstereo::detail::opencl
 
 namespace mctstereo::test {
@@ -57,11 +58,22 @@ Views views(Runtime& rt, const ShiftedPair& pair, int window, CensusKind kind = 
   return {census(rt, pair.left, window, kind), census(rt, pair.right, window, kind)};
 }
 
-/// The search rule's inputs: prior null = the whole range [dmin, dmax] everywhere.
+/// The search rule's inputs: prior null = the whole range [dmin, dmax] everywhere; a temporal
+/// prior (used with a prior) when temporal.on().
 struct Search {
   const Plane<std::int16_t>* prior = nullptr;
   int dmin = 0, dmax = 0, radius = 0;
+  detail::TemporalPrior temporal = {};
 };
+
+/// A host plane on the device.
+template <typename T>
+DevicePlane<T> on_device(Runtime& rt, const Plane<T>& host) {
+  DevicePlane<T> p;
+  p.reset(rt, host.width(), host.height());
+  detail::opencl::upload(rt, host, p);
+  return p;
+}
 
 struct Stats {
   long valid = 0, fractional = 0;
@@ -84,9 +96,9 @@ Stats expect_same(Runtime& rt, const Views& v, const Search& s, const MatchConfi
   scratch.data = detail::allocate_aligned<std::uint8_t>(scratch.bytes_per_thread);
   Plane<std::int16_t> expected(w, h);
   Plane<std::uint8_t> expected_margin(w, h);
-  detail::reference::match(ref, v.other(config.dir).host,
-                           detail::SearchRanges::around(s.prior, s.dmin, s.dmax, s.radius), config, scratch, expected,
-                           &expected_margin);
+  detail::SearchRanges ranges = detail::SearchRanges::around(s.prior, s.dmin, s.dmax, s.radius);
+  ranges.temporal = s.temporal;
+  detail::reference::match(ref, v.other(config.dir).host, ranges, config, scratch, expected, &expected_margin);
   Stats stats;
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
@@ -108,12 +120,23 @@ Stats expect_same(Runtime& rt, const Views& v, const Search& s, const MatchConfi
   const bool with_margin = config.dir < 0 && w > 0 && h > 0;
   if (with_margin) margin.reset(rt, w, h);
   DevicePlane<std::uint8_t>* margin_arg = with_margin ? &margin : nullptr;
+  DevicePlane<std::int16_t> previous;
+  DevicePlane<std::uint8_t> image, previous_image;
+  detail::opencl::DeviceTemporal temporal{&previous, &image, &previous_image, s.temporal.radius,
+                                          s.temporal.threshold};
+  if (s.temporal.on()) {
+    previous = on_device(rt, *s.temporal.map);
+    image = on_device(rt, *s.temporal.image);
+    previous_image = on_device(rt, *s.temporal.previous_image);
+  }
+  const detail::opencl::DeviceTemporal* temporal_arg = s.temporal.on() ? &temporal : nullptr;
   if (layout == Layout::Device)
     detail::opencl::match(rt, v.ref(config.dir).device, v.other(config.dir).device, prior_arg, s.dmin, s.dmax,
-                          s.radius, config, popcount, out, margin_arg);
+                          s.radius, config, popcount, out, margin_arg, temporal_arg);
   else
     detail::opencl::match_with_layout(rt, v.ref(config.dir).device, v.other(config.dir).device, prior_arg, s.dmin,
-                                      s.dmax, s.radius, config, popcount, layout == Layout::Gpu, out, margin_arg);
+                                      s.dmax, s.radius, config, popcount, layout == Layout::Gpu, out, margin_arg,
+                                      temporal_arg);
   rt.queue().enqueueReadBuffer(out.buffer, CL_TRUE, 0, out.bytes(), buffer.data());
 
   Plane<std::int16_t> got(w, h);
@@ -130,6 +153,7 @@ Stats expect_same(Runtime& rt, const Views& v, const Search& s, const MatchConfi
                            ", subpixel " + std::to_string(config.subpixel) + ", uniqueness " +
                            std::to_string(config.uniqueness_ratio) + ", range " + std::to_string(s.dmin) + ".." +
                            std::to_string(s.dmax) + (s.prior ? ", prior radius " + std::to_string(s.radius) : "") +
+                           (s.temporal.on() ? ", temporal radius " + std::to_string(s.temporal.radius) : "") +
                            (popcount == Popcount::Swar ? ", SWAR" : "") +
                            (layout == Layout::Gpu ? ", GPU layout" : layout == Layout::Cpu ? ", CPU layout" : "");
   EXPECT_EQ(first_difference(expected, got), "") << what;
@@ -322,6 +346,47 @@ TEST(OpenclMatch, GpuAndCpuWorkLayouts) {
     expect_same(*rt, v, {nullptr, 0, 20, 0}, {-1, 5, true, 15}, Popcount::Builtin, layout);
     expect_same(*rt, v, {&prior, 0, 20, 2}, {+1, 5, true, 15}, Popcount::Builtin, layout);
   }
+}
+
+// The temporal prior: the previous frame's map near the coarse prior's values (so that its band
+// often lies inside the coarse band), 20 % invalid, and gray images whose change straddles the
+// threshold; awkward sizes, both views, radius 0..2, both work layouts.
+TEST(OpenclMatch, TemporalPriorAtAwkwardSizesAndBothLayouts) {
+  MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
+  std::uint32_t seed = 1300;
+  int case_index = 0;
+  long narrowed = 0;
+  for (auto [w, h] : awkward_sizes()) {
+    if (w * h > 100000) w = 181, h = 67;
+    const int cw = (w + 1) / 2, ch = (h + 1) / 2;
+    if (cw == 0 || ch == 0) continue;
+    const Views v = views(*rt, shifted_pair(w, h, ++seed, 4), 5);
+    const Plane<std::int16_t> prior = random_disparity(cw, ch, ++seed, 16 * 2, 16 * 8, 0.1, true);
+    const Plane<std::int16_t> previous = random_disparity(w, h, ++seed, 16 * 3, 16 * 17, 0.2, false);
+    const Plane<std::uint8_t> image = random_image(w, h, ++seed);
+    Plane<std::uint8_t> previous_image(w, h);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        previous_image.at(x, y) = static_cast<std::uint8_t>(std::clamp(image.at(x, y) + (x * 7 + y * 3) % 27 - 13, 0, 255));
+    const int radius = case_index % 3;
+    const Layout layout = case_index % 2 == 0 ? Layout::Gpu : Layout::Cpu;
+    ++case_index;
+    const detail::TemporalPrior temporal{&previous, &image, &previous_image, radius, 12};
+    for (int dir : {-1, +1})
+      expect_same(*rt, v, {&prior, -2, 22, 3, temporal}, {dir, 5, true, dir < 0 ? 15 : 0}, Popcount::Builtin, layout);
+    // The case narrows some pixels (else it would test nothing of the rule).
+    const detail::SearchRanges ranges = [&] {
+      detail::SearchRanges r = detail::SearchRanges::around(&prior, -2, 22, 3);
+      r.temporal = temporal;
+      return r;
+    }();
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const detail::Interval a = ranges.at(x, y), b = detail::search_range_at(&prior, -2, 22, 3, x, y);
+        narrowed += a.hi - a.lo < b.hi - b.lo;
+      }
+  }
+  EXPECT_GT(narrowed, 1000);
 }
 
 TEST(OpenclMatch, BadArgumentsAreClearErrors) {

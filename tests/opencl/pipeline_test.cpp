@@ -58,6 +58,46 @@ TEST_P(OpenclPipelineCase, EqualsCpuBitForBit) {
 INSTANTIATE_TEST_SUITE_P(PresetsAndAwkwardCases, OpenclPipelineCase, ::testing::ValuesIn(pipeline_cases()),
                          [](const ::testing::TestParamInfo<PipelineCase>& info) { return info.param.id(); });
 
+// The temporal prior on the device, for every pipeline case (temporal radius 0, so that realtime's
+// finer levels take it too): frames whose left view stays while the disparities change (the prior
+// is taken, and wrong), then a cut; both maps equal to the cpu backend's frame after frame (cpu
+// equals the reference: tests/temporal_test.cpp), and after reset_temporal() the frame is matched
+// alone.
+TEST(OpenclPipeline, TemporalPriorEqualsCpuFrameAfterFrame) {
+  MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
+  for (PipelineCase c : pipeline_cases()) {
+    SCOPED_TRACE(c.name);
+    c.params.temporal = true;
+    c.params.temporal_radius = 0;
+    const int d = c.max_disparity();
+    const StereoPair frames[] = {textured_pair(c.w, c.h, d, 11), textured_pair(c.w, c.h, d, 11),
+                                 textured_pair(c.w, c.h, std::max(d - 3, 0), 11), textured_pair(c.w, c.h, d, 12)};
+    MatcherOptions options;
+    options.compute_right = true;
+    Matcher cpu(c.w, c.h, c.params, Backend::Cpu, options);
+    options.device = device_of(*rt);
+    Matcher ocl(c.w, c.h, c.params, Backend::OpenCL, options);
+    ASSERT_EQ(ocl.backend(), Backend::OpenCL);
+    const auto expect_same_maps = [&](const std::string& what) {
+      EXPECT_EQ(describe_difference(pixels(ocl.disparity_q4()), pixels(cpu.disparity_q4()), c.w), "") << what;
+      EXPECT_EQ(describe_difference(pixels(ocl.right_disparity_q4()), pixels(cpu.right_disparity_q4()), c.w), "")
+          << what << ", right map";
+    };
+    for (std::size_t f = 0; f < std::size(frames); ++f) {
+      cpu.compute(frames[f].left_view(), frames[f].right_view());
+      ocl.compute(frames[f].left_view(), frames[f].right_view());
+      EXPECT_EQ(ocl.used_temporal_prior(), f > 0) << "frame " << f;
+      expect_same_maps("frame " + std::to_string(f));
+    }
+    cpu.reset_temporal();
+    ocl.reset_temporal();
+    cpu.compute(frames[1].left_view(), frames[1].right_view());
+    ocl.compute(frames[1].left_view(), frames[1].right_view());
+    EXPECT_FALSE(ocl.used_temporal_prior());
+    expect_same_maps("after reset_temporal()");
+  }
+}
+
 // Every preset against the recipe of the whole frame written apart from the drivers
 // (frame_reference.hpp), on colour input whose channels differ, with the right map and the
 // confidence: a bug in the OpenCL pipeline's own recipe shows even where cpu would share it.

@@ -27,6 +27,7 @@ struct StageCase {
   bool subpixel;
   int uniqueness;
   Popcount popcount;
+  int temporal_radius = -1;  ///< the temporal prior's radius (with a prior); -1: none
 };
 
 std::string name_of(const StageCase& c) {
@@ -34,7 +35,8 @@ std::string name_of(const StageCase& c) {
          std::to_string(c.dmax) + (c.prior ? " prior " + std::to_string(c.prior_size) : " no prior") + " band " +
          std::to_string(c.max_band) + " a " + std::to_string(c.shd_window) + " ct " + std::to_string(c.census_window) +
          " paths " + std::to_string(c.paths) + " k " + std::to_string(c.p2_k) + (c.subpixel ? " subpixel" : "") +
-         " unique " + std::to_string(c.uniqueness) + (c.popcount == Popcount::Swar ? " swar" : " builtin");
+         " unique " + std::to_string(c.uniqueness) + (c.popcount == Popcount::Swar ? " swar" : " builtin") +
+         (c.temporal_radius >= 0 ? " temporal " + std::to_string(c.temporal_radius) : "");
 }
 
 DeviceCodes to_device_codes(Runtime& rt, const detail::CensusCodes& host) {
@@ -66,7 +68,24 @@ void expect_stages_equal(Runtime& rt, const StageCase& c) {
   const int cw = (c.w + 1) / 2, ch = (c.h + 1) / 2;
   const Plane<std::int16_t> coarse =
       random_disparity(cw, ch, 3, 16 * (c.dmin / 2), 16 * (c.dmax / 2 + 1), 0.15, true);
-  const detail::SgmBandConfig band{c.dmin, c.dmax, c.radius, c.prior_size, c.max_band};
+  detail::SgmBandConfig band{c.dmin, c.dmax, c.radius, c.prior_size, c.max_band};
+  // The temporal prior: a previous map near twice the coarse values (+-1 px, Q4 fractions) where
+  // the random map is valid, and gray images whose change straddles the threshold (12).
+  const bool temporal = c.temporal_radius >= 0;
+  Plane<std::int16_t> previous = random_disparity(c.w, c.h, 5, -16, 16, 0.2, false);
+  for (int y = 0; y < c.h; ++y)
+    for (int x = 0; x < c.w; ++x) {
+      const int prior = coarse.at(std::min(x / 2, cw - 1), std::min(y / 2, ch - 1));
+      std::int16_t& v = previous.at(x, y);
+      if (prior == detail::kInvalid) v = detail::kInvalid;
+      if (v != detail::kInvalid) v = static_cast<std::int16_t>(std::clamp(2 * prior + v, 16 * c.dmin, 16 * c.dmax));
+    }
+  Plane<std::uint8_t> previous_image(c.w, c.h);
+  for (int y = 0; y < c.h; ++y)
+    for (int x = 0; x < c.w; ++x)
+      previous_image.at(x, y) =
+          static_cast<std::uint8_t>(std::clamp(pair.left.at(x, y) + (x * 7 + y * 3) % 27 - 13, 0, 255));
+  if (temporal) band.temporal = {&previous, &pair.left, &previous_image, c.temporal_radius, 12};
   const detail::SgmPathConfig paths{c.paths, 20, 150, c.p2_k};
   const detail::SgmSelectConfig select{c.subpixel, c.uniqueness};
 
@@ -82,6 +101,19 @@ void expect_stages_equal(Runtime& rt, const StageCase& c) {
   Plane<std::uint8_t> want_margin(c.w, c.h);
   detail::reference::sgm_costs(left, right, c.prior ? &coarse : nullptr, band, c.shd_window, scratch, host);
   const std::vector<std::uint16_t> want_cost = cost;
+  if (temporal) {
+    // The case narrows bands (else it would test nothing of the rule).
+    detail::SgmBandConfig alone = band;
+    alone.temporal = {};
+    std::vector<std::uint16_t> cost_alone(entries), sum_alone(entries);
+    detail::SgmVolume volume_alone;
+    volume_alone.reset(c.w, c.h, c.max_band, left.words, cost_alone.data(), sum_alone.data());
+    detail::reference::sgm_costs(left, right, &coarse, alone, c.shd_window, scratch, volume_alone);
+    long narrowed = 0;
+    for (int y = 0; y < c.h; ++y)
+      for (int x = 0; x < c.w; ++x) narrowed += host.count.at(x, y) < volume_alone.count.at(x, y);
+    EXPECT_GT(narrowed, c.w * c.h / 20) << "pixels narrowed by the temporal prior";
+  }
   detail::reference::sgm_aggregate(pair.left, paths, scratch, host);
   detail::reference::sgm_select(host, select, scratch, want_left, &want_right, &want_margin);
 
@@ -99,7 +131,11 @@ void expect_stages_equal(Runtime& rt, const StageCase& c) {
   DevicePlane<std::int16_t> got_left = marked_plane<std::int16_t>(rt, c.w, c.h);
   DevicePlane<std::int16_t> got_right = marked_plane<std::int16_t>(rt, c.w, c.h);
   DevicePlane<std::uint8_t> got_margin = marked_plane<std::uint8_t>(rt, c.w, c.h);
-  detail::opencl::SgmCosts(rt, c.popcount).run(dl, dr, c.prior ? &dcoarse : nullptr, band, c.shd_window, dev);
+  const DevicePlane<std::int16_t> dprevious = to_device(rt, previous);
+  const DevicePlane<std::uint8_t> dprevious_image = to_device(rt, previous_image);
+  const detail::opencl::DeviceTemporal dtemporal{&dprevious, &gray, &dprevious_image, c.temporal_radius, 12};
+  detail::opencl::SgmCosts(rt, c.popcount)
+      .run(dl, dr, c.prior ? &dcoarse : nullptr, band, c.shd_window, dev, temporal ? &dtemporal : nullptr);
   const std::vector<std::uint16_t> got_cost = read_buffer<std::uint16_t>(rt, dev.cost, entries);
   detail::opencl::SgmAggregate(rt).run(gray, paths, dev);
   detail::opencl::SgmSelect(rt).run(dev, select, c.dmin, c.dmax, got_left, &got_right, &got_margin);
@@ -148,6 +184,10 @@ TEST(OpenclSgmStages, EqualReference) {
       {17, 2, -3, 5, false, 5, 9, 3, 7, 3, 8, 4, true, 5, builtin},
       {70, 9, 0, 63, false, 5, 64, 3, 9, 5, 4, 8, true, 10, swar},
       {1, 12, 0, 0, true, 5, 1, 3, 3, 5, 8, 8, true, 10, swar},
+      // The temporal prior: radius 0 and 1, 5x5 and 3x3 priors, a negative range, a band cut.
+      {53, 27, 0, 31, true, 5, 16, 3, 3, 5, 4, 16, false, 10, swar, 1},
+      {41, 20, -6, 12, true, 3, 14, 2, 3, 5, 4, 8, false, 0, swar, 0},
+      {37, 3, 0, 23, true, 3, 8, 3, 3, 5, 4, 8, false, 10, swar, 1},
   };
   for (const StageCase& c : cases) {
     if (c.popcount == builtin && !rt->device().has_popcount) continue;

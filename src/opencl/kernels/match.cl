@@ -1,5 +1,6 @@
 // SHD cost and winner-takes-all (reference::match) for one view, with the per-pixel search ranges
-// of search_range_at() made on the fly from the coarse prior.
+// of search_range_at() made on the fly from the coarse prior, and with the temporal prior's rule
+// (with_temporal_prior()) where previous_map is not null.
 //
 // Options: -DSHD_A=a (1, 3, 5, 7 or 9); -DCODE_WORDS=k (1, 2 or 3 planes of census words);
 // -DSUBPIXEL=0/1 (parabola fit into Q4); -DUNIQUENESS=0/1 (ratio test on, the ratio an argument);
@@ -127,14 +128,18 @@ short largest(short16 v) {
   return max(m2.x, m2.y);
 }
 
-// search_range_at() for the 16 pixels x0 .. x0 + 15 of the rows whose coarse row is cy: [2 min - r,
-// 2 max + r] of the valid coarse values (whole pixels in Q4) in the 3x3 around (x / 2, cy),
-// clamped to the coarse plane, clipped to [dmin, dmax]; the whole range where the centre is
-// invalid. Pixels x0 + 2k and x0 + 2k + 1 share coarse column x0 / 2 + k (x0 is even), so the
-// rule runs on 8 lanes and is then widened. Away from the coarse plane's left and right edges
-// the three columns of a coarse row are three vector loads.
-void range_from_prior(const __global short* prior, int prior_stride, int prior_width, int prior_height, int x0,
-                      int cy, int dmin, int dmax, int radius, short16* lo, short16* hi) {
+// The extrema of search_range_at() for the 16 pixels x0 .. x0 + 15 of the rows whose coarse row is
+// cy: min and max (whole pixels) of the valid coarse values in the 3x3 around (x / 2, cy), clamped
+// to the coarse plane, and whether the centre is invalid. Pixels x0 + 2k and x0 + 2k + 1 share
+// coarse column x0 / 2 + k (x0 is even), so the rule runs on 8 lanes (widened by range_of()).
+// Away from the coarse plane's left and right edges the three columns of a coarse row are three
+// vector loads.
+typedef struct {
+  int8 mn, mx, whole;
+} PriorExtrema;
+
+PriorExtrema prior_extrema(const __global short* prior, int prior_stride, int prior_width, int prior_height, int x0,
+                           int cy) {
   const int c0 = x0 / 2;
   const bool inside = c0 >= 1 && c0 + 8 < prior_width;
   int8 centre, mn = (int8)(1 << 20), mx = (int8)(-(1 << 20));
@@ -155,18 +160,70 @@ void range_from_prior(const __global short* prior, int prior_stride, int prior_w
       mx = select(mx, max(mx, v >> 4), valid);
     }
   }
-  const int8 whole = centre == (int8)(DISPARITY_INVALID);
-  const short8 lo8 = convert_short8(select(min(max((int8)(dmin), 2 * mn - radius), (int8)(dmax)), (int8)(dmin), whole));
-  const short8 hi8 = convert_short8(select(max(min((int8)(dmax), 2 * mx + radius), (int8)(dmin)), (int8)(dmax), whole));
+  PriorExtrema e = {mn, mx, centre == (int8)(DISPARITY_INVALID)};
+  return e;
+}
+
+// search_range_at() with radius r from the extrema: [2 min - r, 2 max + r] clipped to [dmin, dmax];
+// the whole range where the centre is invalid.
+void range_of(PriorExtrema e, int dmin, int dmax, int radius, short16* lo, short16* hi) {
+  const short8 lo8 =
+      convert_short8(select(min(max((int8)(dmin), 2 * e.mn - radius), (int8)(dmax)), (int8)(dmin), e.whole));
+  const short8 hi8 =
+      convert_short8(select(max(min((int8)(dmax), 2 * e.mx + radius), (int8)(dmin)), (int8)(dmax), e.whole));
   *lo = (short16)(lo8.s00112233, lo8.s44556677);
   *hi = (short16)(hi8.s00112233, hi8.s44556677);
+}
+
+// 16 values of a row at columns x0 + i + k (k = 0 .. 15) clamped to [0, width - 1].
+int16 row16(const __global short* row, int x0, int i, int width) {
+  if (x0 + i >= 0 && x0 + i + 16 <= width) return convert_int16(vload16(0, row + x0 + i));
+  int value[16];
+  for (int k = 0; k < 16; ++k) value[k] = row[clamp(x0 + i + k, 0, width - 1)];
+  return vload16(0, value);
+}
+int16 gray16(const __global uchar* row, int x0, int width) {
+  if (x0 + 16 <= width) return convert_int16(vload16(0, row + x0));
+  int value[16];
+  for (int k = 0; k < 16; ++k) value[k] = row[min(x0 + k, width - 1)];
+  return vload16(0, value);
+}
+
+// temporal_band_at() of stages.hpp for the 16 pixels x0 .. x0 + 15 of row y: [min - r, max + r] of
+// the previous frame's valid values in the 3x3 around each (floor of the Q4 values for the minimum,
+// ceiling for the maximum), clipped to [dmin, dmax]; empty (lo > hi) where the previous centre is
+// invalid or the gray value changed by more than `threshold`. Columns past the image read the
+// last one (their lanes are no pixels).
+void temporal_range(const __global short* previous_map, int previous_map_stride, const __global uchar* image,
+                    int image_stride, const __global uchar* previous_image, int previous_image_stride, int width,
+                    int height, int x0, int y, int dmin, int dmax, int radius, int threshold, short16* lo,
+                    short16* hi) {
+  int16 centre, mn = (int16)(1 << 20), mx = (int16)(-(1 << 20));
+  for (int j = -1; j <= 1; ++j) {
+    const __global short* row = previous_map + (size_t)clamp(y + j, 0, height - 1) * previous_map_stride;
+    for (int i = -1; i <= 1; ++i) {
+      const int16 v = row16(row, x0, i, width);
+      if (i == 0 && j == 0) centre = v;
+      const int16 valid = v != (int16)(DISPARITY_INVALID);
+      mn = select(mn, min(mn, v >> 4), valid);
+      mx = select(mx, max(mx, (v + 15) >> 4), valid);
+    }
+  }
+  const int16 now = gray16(image + (size_t)y * image_stride, x0, width);
+  const int16 then = gray16(previous_image + (size_t)y * previous_image_stride, x0, width);
+  const int16 empty = (centre == (int16)(DISPARITY_INVALID)) | (abs_diff(now, then) > (uint16)(threshold));
+  *lo = convert_short16(select(min(max((int16)(dmin), mn - radius), (int16)(dmax)), (int16)(1), empty));
+  *hi = convert_short16(select(max(min((int16)(dmax), mx + radius), (int16)(dmin)), (int16)(0), empty));
 }
 
 __kernel void match(__global const uint* ref0, __global const uint* ref1, __global const uint* ref2,
                     __global const uint* other0, __global const uint* other1, __global const uint* other2,
                     int code_stride, int width, int height, __global const short* prior, int prior_stride,
                     int prior_width, int prior_height, int dmin, int dmax, int radius, int dir, int uniqueness_ratio,
-                    __global short* disparity, int disparity_stride, __global uchar* margin, int margin_stride) {
+                    __global short* disparity, int disparity_stride, __global uchar* margin, int margin_stride,
+                    __global const short* previous_map, int previous_map_stride, __global const uchar* image,
+                    int image_stride, __global const uchar* previous_image, int previous_image_stride,
+                    int temporal_radius, int temporal_threshold) {
   const int x0 = (int)get_global_id(0) * 16;
   const int y0 = (int)get_global_id(1) * ROWS;
   if (x0 >= width || y0 >= height) return;
@@ -194,13 +251,29 @@ __kernel void match(__global const uint* ref0, __global const uint* ref1, __glob
   short row_lo[ROWS], row_hi[ROWS];
   short union_lo = COST_INF, union_hi = -COST_INF;
   short16 lo = (short16)((short)dmin), hi = (short16)((short)dmax);
-  int prior_row = -1;  // coarse row of lo and hi
+  // With the temporal prior (previous_map != 0): the coarse rule at the temporal radius too.
+  short16 coarse_lo = lo, coarse_hi = hi, narrow_lo = lo, narrow_hi = hi;
+  int prior_row = -1;  // coarse row of the coarse ranges
 UNROLL
   for (int r = 0; r < ROWS; ++r) {
     const int cy = min((y0 + r) / 2, prior_height - 1);
     if (prior != 0 && cy != prior_row) {
-      range_from_prior(prior, prior_stride, prior_width, prior_height, x0, cy, dmin, dmax, radius, &lo, &hi);
+      const PriorExtrema e = prior_extrema(prior, prior_stride, prior_width, prior_height, x0, cy);
+      range_of(e, dmin, dmax, radius, &coarse_lo, &coarse_hi);
+      if (previous_map != 0) range_of(e, dmin, dmax, temporal_radius, &narrow_lo, &narrow_hi);
       prior_row = cy;
+    }
+    lo = coarse_lo;
+    hi = coarse_hi;
+    if (prior != 0 && previous_map != 0 && y0 + r < height) {
+      // with_temporal_prior(): the previous frame's band where it lies inside the coarse band,
+      // joined with the narrowed coarse band.
+      short16 t_lo, t_hi;
+      temporal_range(previous_map, previous_map_stride, image, image_stride, previous_image, previous_image_stride, width,
+                     height, x0, y0 + r, dmin, dmax, temporal_radius, temporal_threshold, &t_lo, &t_hi);
+      const short16 use = (t_lo <= t_hi) & (t_lo >= coarse_lo) & (t_hi <= coarse_hi);
+      lo = select(coarse_lo, min(narrow_lo, t_lo), use);
+      hi = select(coarse_hi, max(narrow_hi, t_hi), use);
     }
     const short16 outside = beyond | (short16)(y0 + r >= height ? -1 : 0);
     first[r] = select(max(lo, in_image_lo), (short16)(COST_INF), outside);

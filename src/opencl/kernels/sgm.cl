@@ -24,12 +24,44 @@ uint bits_of(uint v) {
 #define bits_of(v) popcount(v)
 #endif
 
+// The prior rule of sgm_prior_band_at() with radius r, from the extrema mn, mx (whole pixels) of
+// the valid priors around a valid centre.
+int2 prior_band(int mn, int mx, int dmin, int dmax, int radius) {
+  return (int2)(min(max(dmin, 2 * mn - radius), dmax), max(min(dmax, 2 * mx + radius), dmin));
+}
+
+// temporal_band_at() of stages.hpp: [min - r, max + r] of the previous frame's valid values in the
+// 3x3 around (x, y) (floor of the Q4 values for the minimum, ceiling for the maximum), clipped to
+// [dmin, dmax]; empty (lo > hi) where the previous centre is invalid or the gray value changed by
+// more than `threshold`.
+int2 temporal_band_at(__global const short* previous_map, int previous_map_stride, __global const uchar* image,
+                      int image_stride, __global const uchar* previous_image, int previous_image_stride, int width,
+                      int height, int dmin, int dmax, int radius, int threshold, int x, int y) {
+  if (previous_map[(size_t)y * previous_map_stride + x] == DISPARITY_INVALID) return (int2)(1, 0);
+  const int change = abs((int)image[(size_t)y * image_stride + x] - (int)previous_image[(size_t)y * previous_image_stride + x]);
+  if (change > threshold) return (int2)(1, 0);
+  int mn = 1 << 20, mx = -(1 << 20);
+  for (int j = -1; j <= 1; ++j) {
+    const __global short* row = previous_map + (size_t)clamp(y + j, 0, height - 1) * previous_map_stride;
+    for (int i = -1; i <= 1; ++i) {
+      const int v = row[clamp(x + i, 0, width - 1)];
+      if (v == DISPARITY_INVALID) continue;
+      mn = min(mn, v >> 4);
+      mx = max(mx, (v + 15) >> 4);
+    }
+  }
+  return (int2)(min(max(dmin, mn - radius), dmax), max(min(dmax, mx + radius), dmin));
+}
+
 // sgm_band_at() of stages.hpp for pixel (x, y): [2 min - r, 2 max + r] over the valid priors of
 // the prior_size x prior_size coarse neighbourhood, the level range without a prior (or with an
-// invalid centre), then clipped to 0 <= x - d < W and cut to max_band around 2 x the centre.
+// invalid centre); with the temporal prior (previous_map != 0) with_temporal_prior() of it and of the
+// same rule at the temporal radius; then clipped to 0 <= x - d < W and cut to max_band around
+// 2 x the centre.
 int2 band_at(__global const short* prior, int prior_stride, int prior_width, int prior_height, int dmin, int dmax,
-             int radius, int prior_size, int max_band, int width, int x, int y) {
+             int radius, int prior_size, int max_band, int width, int x, int y, int2 previous_band, int temporal_radius) {
   int lo = dmin, hi = dmax, centre = (dmin + dmax) >> 1;
+  int2 narrow = (int2)(dmin, dmax);
   if (prior != 0) {
     const int cx = min(x / 2, prior_width - 1), cy = min(y / 2, prior_height - 1);
     const int c = prior[(size_t)cy * prior_stride + cx];
@@ -46,8 +78,16 @@ int2 band_at(__global const short* prior, int prior_stride, int prior_width, int
           mx = max(mx, v >> 4);
         }
       }
-      lo = min(max(dmin, 2 * mn - radius), dmax);
-      hi = max(min(dmax, 2 * mx + radius), dmin);
+      const int2 band = prior_band(mn, mx, dmin, dmax, radius);
+      lo = band.x;
+      hi = band.y;
+      narrow = prior_band(mn, mx, dmin, dmax, temporal_radius);
+    }
+    // The temporal prior (an empty previous band when it is off or has nothing here): kept only
+    // when it lies inside the coarse band, then joined with the narrowed coarse band.
+    if (previous_band.x <= previous_band.y && previous_band.x >= lo && previous_band.y <= hi) {
+      lo = min(narrow.x, previous_band.x);
+      hi = max(narrow.y, previous_band.y);
     }
   }
   lo = max(lo, x - width + 1);
@@ -57,17 +97,28 @@ int2 band_at(__global const short* prior, int prior_stride, int prior_width, int
 }
 
 // One work-item per pixel: its band (lo, count) and the a x a sums of Hamming distances of its
-// candidates, reads clamped to the image as in the reference. prior == 0: the whole range.
+// candidates, reads clamped to the image as in the reference. prior == 0: the whole range;
+// previous_map == 0: no temporal prior (else this view's map of the previous frame at this level, with
+// the level's gray image now and then).
 __kernel void sgm_costs(__global const uint* left0, __global const uint* left1, __global const uint* left2,
                         __global const uint* right0, __global const uint* right1, __global const uint* right2,
                         int code_stride, int words, int width, int height, __global const short* prior,
                         int prior_stride, int prior_width, int prior_height, int dmin, int dmax, int radius,
                         int prior_size, int max_band, int box_half, __global short* lo_plane,
-                        __global short* count_plane, int plane_stride, __global ushort* cost, int slot) {
+                        __global short* count_plane, int plane_stride, __global ushort* cost, int slot,
+                        __global const short* previous_map, int previous_map_stride, __global const uchar* image,
+                        int image_stride, __global const uchar* previous_image, int previous_image_stride,
+                        int temporal_radius, int temporal_threshold) {
   const int x = (int)get_global_id(0), y = (int)get_global_id(1);
   if (x >= width || y >= height) return;
+  // The temporal prior (previous_map != 0, with a coarser prior only): the previous frame's band.
+  const int2 previous_band =
+      previous_map != 0 && prior != 0
+          ? temporal_band_at(previous_map, previous_map_stride, image, image_stride, previous_image, previous_image_stride,
+                             width, height, dmin, dmax, temporal_radius, temporal_threshold, x, y)
+          : (int2)(1, 0);
   const int2 band = band_at(prior, prior_stride, prior_width, prior_height, dmin, dmax, radius, prior_size, max_band,
-                            width, x, y);
+                            width, x, y, previous_band, temporal_radius);
   const int count = band.y - band.x + 1;
   lo_plane[(size_t)y * plane_stride + x] = (short)band.x;
   count_plane[(size_t)y * plane_stride + x] = (short)count;
