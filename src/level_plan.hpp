@@ -38,6 +38,9 @@ struct LevelSpec {
   bool right_map = false; ///< the right view's map is made here (both views are matched)
   int sgm_band = 0;       ///< band SGM: most candidates of a pixel (0 without SGM)
   int sgm_stride = 0;     ///< band SGM: entries per pixel slot
+  /// Band SGM on the host backends: costs in bytes (sgm_byte_costs() of the level's box and the
+  /// census); the opencl backend keeps 16-bit costs.
+  bool sgm_byte_costs = false;
   /// The temporal prior narrows this level's search (StereoParams::temporal; a level with a coarser
   /// prior whose radius exceeds the temporal radius): it keeps its maps of the previous frame.
   bool temporal = false;
@@ -51,7 +54,8 @@ struct LevelPlan {
   std::vector<Size2> working;     ///< the input size, then each working-scale reduction
   std::vector<LevelSpec> levels;  ///< levels[0] is the finest (the working scale)
   int census_words = 1;
-  std::size_t sgm_entries = 0;  ///< band SGM: cost (and sum) entries of the largest volume
+  std::size_t sgm_entries = 0;     ///< band SGM: cost (and sum) entries of the largest volume
+  std::size_t sgm_cost_bytes = 0;  ///< band SGM: bytes of the largest volume's costs (host backends)
   int sgm_max_stride = 16;      ///< band SGM: the widest slot
   int sgm_levels = 0;           ///< levels that aggregate by SGM (the coarsest ones)
   int box_range = 0;            ///< most disparities of a box level (0: none)
@@ -98,7 +102,10 @@ inline LevelPlan plan_levels(const StereoParams& p, int width, int height, bool 
     if (L.is_sgm) {
       L.sgm_band = sgm_band_width(p, L.dmin, L.dmax, lw, L.coarsest);
       L.sgm_stride = SgmVolume::stride_for(L.sgm_band);
-      plan.sgm_entries = std::max(plan.sgm_entries, SgmVolume::entries_for(lw, lh, L.sgm_band));
+      L.sgm_byte_costs = sgm_byte_costs(L.shd_window, p.census_window);
+      const std::size_t entries = SgmVolume::entries_for(lw, lh, L.sgm_band);
+      plan.sgm_entries = std::max(plan.sgm_entries, entries);
+      plan.sgm_cost_bytes = std::max(plan.sgm_cost_bytes, entries * (L.sgm_byte_costs ? 1 : 2));
       plan.sgm_max_stride = std::max(plan.sgm_max_stride, L.sgm_stride);
       ++plan.sgm_levels;
     } else {

@@ -142,7 +142,8 @@ struct Matcher::Impl {
   detail::MatchScratch match_scratch;
   detail::SpeckleScratch speckle_scratch;
   // Band SGM: the cost and sum storage every level's volume uses and the scratch of its stages.
-  std::unique_ptr<std::uint16_t[], detail::FreeDeleter> sgm_cost, sgm_sum;
+  std::unique_ptr<std::uint8_t[], detail::FreeDeleter> sgm_cost;
+  std::unique_ptr<std::uint16_t[], detail::FreeDeleter> sgm_sum;
   detail::SgmScratch sgm_scratch;
   // The winner margins of the level the confidence takes them from (the plan's margin_level: the
   // finest, or the finest SGM level under box levels), the finest level's confidence, and the
@@ -227,10 +228,13 @@ struct Matcher::Impl {
     }
     const int scale_steps = static_cast<int>(plan.working.size()) - 1;
     if (plan.sgm_levels > 0) {
-      sgm_cost = detail::allocate_aligned<std::uint16_t>(plan.sgm_entries);
+      // One storage of costs for every level, bytes or 16-bit entries as each level's costs need.
+      sgm_cost = detail::allocate_aligned<std::uint8_t>(plan.sgm_cost_bytes);
       sgm_sum = detail::allocate_aligned<std::uint16_t>(plan.sgm_entries);
       for (Level& L : levels) {
-        L.sgm.cost = sgm_cost.get();
+        if (!L.is_sgm) continue;
+        L.sgm.cost = reinterpret_cast<std::uint16_t*>(sgm_cost.get());
+        if (L.sgm_byte_costs) L.sgm.use_byte_costs(sgm_cost.get());
         L.sgm.sum = sgm_sum.get();
       }
       sgm_scratch.threads = threads;
@@ -756,7 +760,7 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   if (plan.sgm_levels > 0) {
     // The cost and sum storage every SGM level shares and the stages' scratch.
     const detail::LevelSpec& s = plan.finest_sgm();
-    total += 2 * plan.sgm_entries * sizeof(std::uint16_t);
+    total += plan.sgm_cost_bytes + plan.sgm_entries * sizeof(std::uint16_t);
     total += threads * ((detail::cpu::sgm_scratch_bytes(s.width, s.height, plan.sgm_max_stride) + 63) / 64 * 64);
   }
   // Margins (at the plan's margin level), confidence at the working scale and at the output size.

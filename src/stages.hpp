@@ -206,10 +206,22 @@ struct CensusMatchJob {
 /// for the left view as reference (the right view's map comes from the same sums).
 ///
 /// Pixel (x, y) holds count(x, y) candidates lo(x, y) .. lo(x, y) + count - 1, all with
-/// 0 <= x - d < W, in a slot of `stride` 16-bit entries at index (y W + x) stride; entries past
-/// count hold kSgmInf. Costs are the a x a box sums of Hamming distances (as match()), sums the
-/// path values added up.
+/// 0 <= x - d < W, in a slot of `stride` entries at index (y W + x) stride; entries past count
+/// hold kSgmInf (kSgmInf8 in byte costs). Costs are the a x a box sums of Hamming distances (as
+/// match()), sums the path values added up (16 bits).
 inline constexpr std::uint16_t kSgmInf = 0xFFFF;
+inline constexpr std::uint8_t kSgmInf8 = 0xFF;
+
+/// The largest SGM cost with an a x a box of census distances of w x w - 1 bits each.
+constexpr int sgm_max_cost(int shd_window, int census_window) {
+  return shd_window * shd_window * (census_window * census_window - 1);
+}
+/// Whether a level's costs go into bytes: every cost below kSgmInf8 (at most 216 for CT 5x5 with
+/// a 3x3 box, the presets' windows). Half the memory and traffic of 16-bit costs (quality at
+/// 640 x 480: 3 % of the frame time; at 1280 x 720 with 256 disparities 28 MiB less).
+constexpr bool sgm_byte_costs(int shd_window, int census_window) {
+  return sgm_max_cost(shd_window, census_window) < kSgmInf8;
+}
 
 struct SgmVolume {
   int width = 0, height = 0;
@@ -217,8 +229,10 @@ struct SgmVolume {
   int stride = 0;  ///< entries per pixel slot: band rounded up to a multiple of 16
   Plane<std::int16_t> lo, count;
   /// W x H x stride entries each, in storage the caller owns: the levels run one after the other,
-  /// so the driver gives all of them the same storage, sized for the largest.
+  /// so the driver gives all of them the same storage, sized for the largest. The costs are 16-bit
+  /// (cost) or, after use_byte_costs(), bytes (cost8); exactly one of the two is set.
   std::uint16_t* cost = nullptr;
+  std::uint8_t* cost8 = nullptr;
   std::uint16_t* sum = nullptr;
   /// cpu backend: the right view's codes mirrored (x -> W - 1 - x), so that the codes of a pixel's
   /// candidates lo, lo + 1, ... lie at increasing addresses.
@@ -232,6 +246,7 @@ struct SgmVolume {
     lo.reset(w, h);
     count.reset(w, h);
     cost = cost_storage;
+    cost8 = nullptr;
     sum = sum_storage;
     for (int k = 0; k < 3; ++k) mirrored[k] = {};
     for (int k = 0; k < words; ++k) mirrored[k].reset(w, h, mirror_pad(stride));
@@ -247,10 +262,33 @@ struct SgmVolume {
     return 2 * Plane<std::int16_t>::bytes_for(w, h) +
            words * Plane<std::uint32_t>::bytes_for(w, h, mirror_pad(stride_for(band_width)));
   }
-  std::uint16_t* cost_at(int x, int y) { return cost + (static_cast<std::size_t>(y) * width + x) * stride; }
-  const std::uint16_t* cost_at(int x, int y) const { return cost + (static_cast<std::size_t>(y) * width + x) * stride; }
-  std::uint16_t* sum_at(int x, int y) { return sum + (static_cast<std::size_t>(y) * width + x) * stride; }
-  const std::uint16_t* sum_at(int x, int y) const { return sum + (static_cast<std::size_t>(y) * width + x) * stride; }
+  /// Byte costs in `storage` (W x H x stride bytes) instead of 16-bit ones: only where every cost
+  /// of the level is below kSgmInf8 (sgm_byte_costs()).
+  void use_byte_costs(std::uint8_t* storage) {
+    cost = nullptr;
+    cost8 = storage;
+  }
+  std::size_t slot_of(int x, int y) const { return (static_cast<std::size_t>(y) * width + x) * stride; }
+  /// Entry k of pixel (x, y)'s costs, kSgmInf past its count, whatever their storage.
+  int cost_value(int x, int y, int k) const {
+    const std::size_t i = slot_of(x, y) + static_cast<std::size_t>(k);
+    if (cost8 == nullptr) return cost[i];
+    return cost8[i] == kSgmInf8 ? kSgmInf : cost8[i];
+  }
+  /// Sets entry k of pixel (x, y)'s costs (c below kSgmInf8 in byte costs, or kSgmInf).
+  void set_cost(int x, int y, int k, int c) {
+    const std::size_t i = slot_of(x, y) + static_cast<std::size_t>(k);
+    if (cost8 == nullptr)
+      cost[i] = static_cast<std::uint16_t>(c);
+    else
+      cost8[i] = c == kSgmInf ? kSgmInf8 : static_cast<std::uint8_t>(c);
+  }
+  std::uint16_t* cost_at(int x, int y) { return cost + slot_of(x, y); }
+  const std::uint16_t* cost_at(int x, int y) const { return cost + slot_of(x, y); }
+  std::uint8_t* cost8_at(int x, int y) { return cost8 + slot_of(x, y); }
+  const std::uint8_t* cost8_at(int x, int y) const { return cost8 + slot_of(x, y); }
+  std::uint16_t* sum_at(int x, int y) { return sum + slot_of(x, y); }
+  const std::uint16_t* sum_at(int x, int y) const { return sum + slot_of(x, y); }
 };
 
 /// How one level's band is made from the coarser map.

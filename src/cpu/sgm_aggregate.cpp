@@ -113,14 +113,16 @@ struct PathState {
 // planes, every pixel would reload their data pointers and strides (the stores into the sums
 // may alias them as far as the compiler knows) and multiply again.
 struct RowView {
-  const std::uint16_t* cost;  // pixel 0's slot
+  const std::uint16_t* cost;  // pixel 0's slot: 16-bit costs, or
+  const std::uint8_t* cost8;  // byte costs (SgmVolume::use_byte_costs())
   std::uint16_t* sum;
   const std::int16_t* lo;
   const std::uint8_t* gray;
 };
 
 RowView row_view(const Plane<std::uint8_t>& gray, SgmVolume& v, int y) {
-  return RowView{v.cost_at(0, y), v.sum_at(0, y), v.lo.row(y), gray.row(y)};
+  return v.cost8 ? RowView{nullptr, v.cost8_at(0, y), v.sum_at(0, y), v.lo.row(y), gray.row(y)}
+                 : RowView{v.cost_at(0, y), nullptr, v.sum_at(0, y), v.lo.row(y), gray.row(y)};
 }
 
 // What every step of a path shares.
@@ -130,15 +132,28 @@ struct PathConstants {
   const int* p2_of_diff;  // P2' of every gray difference
 };
 
+// Costs at entry `at` of the row's slots in u16 lanes: byte costs widened, their kSgmInf8 made
+// kSgmInf again.
+template <bool kBytes, class D>
+HWY_INLINE hn::Vec<D> LoadCosts(D d, const RowView& r, std::size_t at) {
+  if constexpr (kBytes) {
+    const hn::Rebind<std::uint8_t, D> d8;
+    const auto c = hn::PromoteTo(d, hn::LoadU(d8, r.cost8 + at));
+    return hn::IfThenElse(hn::Eq(c, hn::Set(d, kSgmInf8)), hn::Set(d, kSgmInf), c);
+  } else {
+    return hn::LoadU(d, r.cost + at);
+  }
+}
+
 // One step of a path: the values of pixel x of row r from its predecessor's, added into the
-// sums (written when kFirst). kVecs = stride / lanes when known at compile time (0: any).
-template <class D, bool kFirst, int kVecs>
+// sums (written when kFirst). kVecs = stride / lanes when known at compile time (0: any); kBytes:
+// the volume's costs are bytes.
+template <class D, bool kFirst, int kVecs, bool kBytes>
 HWY_INLINE void PathStep(const RowView& r, int x, const PathConstants& c, PathState& st) {
   const D d;
   const int n = static_cast<int>(hn::Lanes(d));
   const int stride = kVecs > 0 ? kVecs * n : c.stride;
   const std::size_t slot = static_cast<std::size_t>(x) * stride;
-  const std::uint16_t* cost = r.cost + slot;
   std::uint16_t* sum = r.sum + slot;
   std::uint16_t* l = st.cur + c.pad;
   const int lo = r.lo[x], g = r.gray[x];
@@ -151,7 +166,7 @@ HWY_INLINE void PathStep(const RowView& r, int x, const PathConstants& c, PathSt
   };
   if (st.m_prev == kSgmInf) {
     // The path starts here (or its predecessor had no candidate): L = C.
-    for (int k = 0; k < stride; k += n) emit(k, hn::LoadU(d, cost + k));
+    for (int k = 0; k < stride; k += n) emit(k, LoadCosts<kBytes>(d, r, slot + k));
   } else {
     const int s = std::clamp(lo - st.lo_prev, -(stride + 1), stride + 1);
     const std::uint16_t* q = st.prev + c.pad + s;
@@ -164,7 +179,7 @@ HWY_INLINE void PathStep(const RowView& r, int x, const PathConstants& c, PathSt
       const auto below = hn::SaturatedAdd(hn::LoadU(d, q + k - 1), p1);
       const auto above = hn::SaturatedAdd(hn::LoadU(d, q + k + 1), p1);
       const auto t = hn::Min(hn::Min(same, jump), hn::Min(below, above));
-      emit(k, hn::SaturatedAdd(hn::LoadU(d, cost + k), hn::Sub(t, m)));
+      emit(k, hn::SaturatedAdd(LoadCosts<kBytes>(d, r, slot + k), hn::Sub(t, m)));
     }
   }
   st.m_prev = MinLaneOf(d, vmin);
@@ -179,18 +194,18 @@ PathState fresh_state(std::uint16_t* buffers, int entries) {
 }
 
 // A path along one line (a diagonal), pixel after pixel.
-template <class D, int kVecs>
+template <class D, int kVecs, bool kBytes>
 void PathLine(const Plane<std::uint8_t>& gray, const PathConstants& c, int x, int y, int dx, int dy,
               std::uint16_t* buffers, SgmVolume& v) {
   PathState st = fresh_state(buffers, path_buffer_entries(v.stride));
   for (; x >= 0 && x < v.width && y >= 0 && y < v.height; x += dx, y += dy)
-    PathStep<D, false, kVecs>(row_view(gray, v, y), x, c, st);
+    PathStep<D, false, kVecs, kBytes>(row_view(gray, v, y), x, c, st);
 }
 
 // A horizontal path over a block of rows at once, column after column. A step depends on the one
 // before through m(q) (a reduction over the lanes), so one line alone is latency-bound;
 // interleaving independent lines fills that time.
-template <class D, bool kFirst, int kVecs>
+template <class D, bool kFirst, int kVecs, bool kBytes>
 void PathRows(const Plane<std::uint8_t>& gray, const PathConstants& c, int y0, int block, int dx,
               std::uint16_t* buffers, SgmVolume& v) {
   const int entries = path_buffer_entries(v.stride);
@@ -203,7 +218,7 @@ void PathRows(const Plane<std::uint8_t>& gray, const PathConstants& c, int y0, i
   }
   for (int i = 0; i < v.width; ++i) {
     const int x = dx > 0 ? i : v.width - 1 - i;
-    for (int j = 0; j < rows; ++j) PathStep<D, kFirst, kVecs>(view[j], x, c, st[j]);
+    for (int j = 0; j < rows; ++j) PathStep<D, kFirst, kVecs, kBytes>(view[j], x, c, st[j]);
   }
 }
 
@@ -212,7 +227,7 @@ void PathRows(const Plane<std::uint8_t>& gray, const PathConstants& c, int y0, i
 // row of slots per step, a cache and TLB miss each: measured 8x slower at 640 x 480). Each row
 // of a block is a short run in a new page, where the hardware prefetchers do not follow: the
 // block's slots a few rows ahead are prefetched.
-template <class D, int kVecs>
+template <class D, int kVecs, bool kBytes>
 void PathColumns(const Plane<std::uint8_t>& gray, const PathConstants& c, int x0, int block, int dy,
                  std::uint16_t* buffers, SgmVolume& v) {
   const int entries = path_buffer_entries(v.stride);
@@ -220,24 +235,24 @@ void PathColumns(const Plane<std::uint8_t>& gray, const PathConstants& c, int x0
   constexpr int kAhead = 4;
   PathState st[kColumnBlock];
   for (int x = x0; x < x1; ++x) st[x - x0] = fresh_state(buffers + 2 * entries * (x - x0), entries);
-  const int bytes = (x1 - x0) * v.stride * static_cast<int>(sizeof(std::uint16_t));
+  const int sum_bytes = (x1 - x0) * v.stride * static_cast<int>(sizeof(std::uint16_t));
+  const int cost_bytes = kBytes ? sum_bytes / 2 : sum_bytes;
   for (int i = 0; i < v.height; ++i) {
     const int y = dy > 0 ? i : v.height - 1 - i;
     const int ahead = y + kAhead * dy;
     if (ahead >= 0 && ahead < v.height) {
-      const char* cost = reinterpret_cast<const char*>(v.cost_at(x0, ahead));
+      const char* cost =
+          kBytes ? reinterpret_cast<const char*>(v.cost8_at(x0, ahead)) : reinterpret_cast<const char*>(v.cost_at(x0, ahead));
       const char* sum = reinterpret_cast<const char*>(v.sum_at(x0, ahead));
-      for (int b = 0; b < bytes; b += 64) {
-        hwy::Prefetch(cost + b);
-        hwy::Prefetch(sum + b);
-      }
+      for (int b = 0; b < cost_bytes; b += 64) hwy::Prefetch(cost + b);
+      for (int b = 0; b < sum_bytes; b += 64) hwy::Prefetch(sum + b);
     }
     const RowView view = row_view(gray, v, y);
-    for (int x = x0; x < x1; ++x) PathStep<D, false, kVecs>(view, x, c, st[x - x0]);
+    for (int x = x0; x < x1; ++x) PathStep<D, false, kVecs, kBytes>(view, x, c, st[x - x0]);
   }
 }
 
-template <class D, int kVecs>
+template <class D, int kVecs, bool kBytes>
 void AggregateAll(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, const PathConstants& c,
                   SgmScratch& scratch, SgmVolume& v) {
   const int row_block = block_lines(kRowBlock, v.height, scratch.threads);
@@ -257,8 +272,8 @@ void AggregateAll(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, 
       row_blocks, 1,
       [&](int b0, int b1) {
         for (int b = b0; b < b1; ++b) {
-          PathRows<D, true, kVecs>(gray, c, b * row_block, row_block, +1, buffers(), v);
-          PathRows<D, false, kVecs>(gray, c, b * row_block, row_block, -1, buffers(), v);
+          PathRows<D, true, kVecs, kBytes>(gray, c, b * row_block, row_block, +1, buffers(), v);
+          PathRows<D, false, kVecs, kBytes>(gray, c, b * row_block, row_block, -1, buffers(), v);
         }
       },
       scratch.threads);
@@ -266,8 +281,8 @@ void AggregateAll(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, 
       column_blocks, 1,
       [&](int b0, int b1) {
         for (int b = b0; b < b1; ++b) {
-          PathColumns<D, kVecs>(gray, c, b * column_block, column_block, +1, buffers(), v);
-          PathColumns<D, kVecs>(gray, c, b * column_block, column_block, -1, buffers(), v);
+          PathColumns<D, kVecs, kBytes>(gray, c, b * column_block, column_block, +1, buffers(), v);
+          PathColumns<D, kVecs, kBytes>(gray, c, b * column_block, column_block, -1, buffers(), v);
         }
       },
       scratch.threads);
@@ -280,11 +295,29 @@ void AggregateAll(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, 
           for (int i = i0; i < i1; ++i) {
             int x, y;
             lines.start(i, x, y);
-            PathLine<D, kVecs>(gray, c, x, y, lines.dx, lines.dy, buffers(), v);
+            PathLine<D, kVecs, kBytes>(gray, c, x, y, lines.dx, lines.dy, buffers(), v);
           }
         },
         scratch.threads);
   }
+}
+
+// Slots of one vector (16 candidates; 32 on AVX-512 and wide SVE) and of two 16-lane vectors
+// (32 candidates on AVX2) unroll.
+template <bool kBytes>
+void AggregateWith(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, const PathConstants& c,
+                   SgmScratch& scratch, SgmVolume& v) {
+  if (WideSlots(v.stride)) {
+    if (v.stride == static_cast<int>(hn::Lanes(WideTagU16())))
+      AggregateAll<WideTagU16, 1, kBytes>(gray, config, c, scratch, v);
+    else
+      AggregateAll<WideTagU16, 0, kBytes>(gray, config, c, scratch, v);
+    return;
+  }
+  const int vecs = v.stride / static_cast<int>(hn::Lanes(DU16()));
+  if (vecs == 1) AggregateAll<DU16, 1, kBytes>(gray, config, c, scratch, v);
+  else if (vecs == 2) AggregateAll<DU16, 2, kBytes>(gray, config, c, scratch, v);
+  else AggregateAll<DU16, 0, kBytes>(gray, config, c, scratch, v);
 }
 
 void SgmAggregate(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, SgmScratch& scratch, SgmVolume& v) {
@@ -292,17 +325,10 @@ void SgmAggregate(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, 
   int p2_of_diff[256];
   for (int diff = 0; diff < 256; ++diff) p2_of_diff[diff] = sgm_p2_at(config, diff, 0);
   const PathConstants c{v.stride, path_buffer_pad(v.stride), static_cast<std::uint16_t>(config.p1), p2_of_diff};
-  // Slots of one vector (16 candidates; 32 on AVX-512 and wide SVE) and of two 16-lane vectors
-  // (32 candidates on AVX2) unroll.
-  if (WideSlots(v.stride)) {
-    if (v.stride == static_cast<int>(hn::Lanes(WideTagU16()))) AggregateAll<WideTagU16, 1>(gray, config, c, scratch, v);
-    else AggregateAll<WideTagU16, 0>(gray, config, c, scratch, v);
-    return;
-  }
-  const int vecs = v.stride / static_cast<int>(hn::Lanes(DU16()));
-  if (vecs == 1) AggregateAll<DU16, 1>(gray, config, c, scratch, v);
-  else if (vecs == 2) AggregateAll<DU16, 2>(gray, config, c, scratch, v);
-  else AggregateAll<DU16, 0>(gray, config, c, scratch, v);
+  if (v.cost8)
+    AggregateWith<true>(gray, config, c, scratch, v);
+  else
+    AggregateWith<false>(gray, config, c, scratch, v);
 }
 
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE

@@ -23,6 +23,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <limits>
 
 #include "cpu/parallel.hpp"
 #include "cpu/search_range-inl.h"
@@ -103,13 +104,16 @@ void MirrorCodes(const CensusCodes& right, SgmVolume& v) {
 // Costs of the candidates k = 0 .. stride - 1 of every pixel of a row (those past count are
 // kSgmInf), the window's rows of codes given by pointers. One call per row, so that the window's
 // loops unroll (kWords, kA) and its row pointers stay in registers.
-template <int kWords, int kA>
+// T: the volume's cost entries, u16 or (where every cost is below kSgmInf8) bytes; kSgmInf
+// saturates to either's largest value.
+template <int kWords, int kA, class T>
 void RowCosts(const std::uint32_t* const* left_rows, const std::uint32_t* const* mirror_rows, int w,
-              const std::int16_t* lo_row, const std::int16_t* count_row, int stride, std::uint16_t* HWY_RESTRICT out) {
+              const std::int16_t* lo_row, const std::int16_t* count_row, int stride, T* HWY_RESTRICT out) {
   constexpr int kH = kA / 2;
+  constexpr T kInf = std::numeric_limits<T>::max();  // kSgmInf or kSgmInf8
   const DU32 du32;
   const DI32 di32;
-  const DU16 du16;
+  const hn::Rebind<T, DI32> dout;
   const int n = static_cast<int>(hn::Lanes(du32));
   const std::uint32_t* left[kA * kWords];
   const std::uint32_t* mirror[kA * kWords];
@@ -119,12 +123,12 @@ void RowCosts(const std::uint32_t* const* left_rows, const std::uint32_t* const*
       mirror[j * kWords + word] = mirror_rows[j * 3 + word];
     }
   const auto inf = hn::Set(di32, kSgmInf);
-  const auto inf16 = hn::DemoteTo(du16, inf);
+  const auto inf_out = hn::Set(dout, kInf);
   const auto iota = hn::Iota(di32, 0);
   for (int x = 0; x < w; ++x, out += stride) {
     const int lo = lo_row[x], count = count_row[x];
     if (count == 0) {
-      for (int k = 0; k < stride; ++k) out[k] = kSgmInf;  // lo may lie anywhere: read nothing
+      for (int k = 0; k < stride; ++k) out[k] = kInf;  // lo may lie anywhere: read nothing
       continue;
     }
     // Mirrored column of candidate k0 of window column i: base - i + k0.
@@ -143,26 +147,33 @@ void RowCosts(const std::uint32_t* const* left_rows, const std::uint32_t* const*
           }
         }
       }
-      // Costs are at most 9 x 9 x 80: the signed demotion to u16 is exact.
+      // Costs are at most 9 x 9 x 80, and below kSgmInf8 with byte entries: the saturating
+      // demotion is exact for them and takes kSgmInf to the entries' largest value.
       const auto in_band = hn::Lt(hn::Add(iota, hn::Set(di32, k0)), hn::Set(di32, count));
-      hn::StoreU(hn::DemoteTo(du16, hn::IfThenElse(in_band, hn::BitCast(di32, acc), inf)), du16, out + k0);
+      hn::StoreU(hn::DemoteTo(dout, hn::IfThenElse(in_band, hn::BitCast(di32, acc), inf)), dout, out + k0);
     }
-    for (; k0 < stride; k0 += n) hn::StoreU(inf16, du16, out + k0);
+    for (; k0 < stride; k0 += n) hn::StoreU(inf_out, dout, out + k0);
   }
 }
 
+template <class T>
 using RowCostsFn = void (*)(const std::uint32_t* const*, const std::uint32_t* const*, int, const std::int16_t*,
-                            const std::int16_t*, int, std::uint16_t*);
+                            const std::int16_t*, int, T*);
 
-template <int kWords>
-RowCostsFn RowCostsFor(int a) {
+template <int kWords, class T>
+RowCostsFn<T> RowCostsFor(int a) {
   switch (a) {
-    case 1: return &RowCosts<kWords, 1>;
-    case 3: return &RowCosts<kWords, 3>;
-    case 5: return &RowCosts<kWords, 5>;
-    case 7: return &RowCosts<kWords, 7>;
-    default: return &RowCosts<kWords, 9>;
+    case 1: return &RowCosts<kWords, 1, T>;
+    case 3: return &RowCosts<kWords, 3, T>;
+    case 5: return &RowCosts<kWords, 5, T>;
+    case 7: return &RowCosts<kWords, 7, T>;
+    default: return &RowCosts<kWords, 9, T>;
   }
+}
+
+template <class T>
+RowCostsFn<T> RowCostsOf(int words, int a) {
+  return words == 1 ? RowCostsFor<1, T>(a) : words == 2 ? RowCostsFor<2, T>(a) : RowCostsFor<3, T>(a);
 }
 
 // The coarse row's bands for RowBands().
@@ -227,9 +238,9 @@ void SgmCosts(const CensusCodes& left, const CensusCodes& right, const Plane<std
               const SgmBandConfig& config, int shd_window, SgmScratch& scratch, SgmVolume& v) {
   const int w = v.width, h = v.height, words = left.words, hr = shd_window / 2;
   MirrorCodes(right, v);
-  const RowCostsFn costs = words == 1   ? RowCostsFor<1>(shd_window)
-                           : words == 2 ? RowCostsFor<2>(shd_window)
-                                        : RowCostsFor<3>(shd_window);
+  // The row's costs into the volume's entries, bytes or u16.
+  const RowCostsFn<std::uint8_t> byte_costs = v.cost8 ? RowCostsOf<std::uint8_t>(words, shd_window) : nullptr;
+  const RowCostsFn<std::uint16_t> wide_costs = v.cost8 ? nullptr : RowCostsOf<std::uint16_t>(words, shd_window);
   const int cw = coarse ? coarse->width() : 1;
   if (t_pool && t_pool->size() > scratch.threads) std::abort();  // a scratch slice per thread
   parallel_for(
@@ -270,7 +281,10 @@ void SgmCosts(const CensusCodes& left, const CensusCodes& right, const Plane<std
               mirror_rows[j * 3 + k] = v.mirrored[k].row(yy);
             }
           }
-          costs(left_rows, mirror_rows, w, v.lo.row(y), v.count.row(y), v.stride, v.cost_at(0, y));
+          if (byte_costs)
+            byte_costs(left_rows, mirror_rows, w, v.lo.row(y), v.count.row(y), v.stride, v.cost8_at(0, y));
+          else
+            wide_costs(left_rows, mirror_rows, w, v.lo.row(y), v.count.row(y), v.stride, v.cost_at(0, y));
         }
       },
       scratch.threads);

@@ -18,7 +18,6 @@ namespace {
 void path_step(const SgmVolume& v, int x, int y, int qx, int qy, bool has_q, const Plane<std::uint8_t>& gray,
                const SgmPathConfig& config, const std::uint16_t* lq, std::uint16_t* lp) {
   const int lo = v.lo.at(x, y), count = v.count.at(x, y);
-  const std::uint16_t* cost = v.cost_at(x, y);
   const int q_lo = has_q ? v.lo.at(qx, qy) : 0, q_count = has_q ? v.count.at(qx, qy) : 0;
   const auto l_q = [&](int d) { return d >= q_lo && d < q_lo + q_count ? static_cast<int>(lq[d - q_lo]) : INT_MAX / 2; };
   int m = INT_MAX;
@@ -30,12 +29,12 @@ void path_step(const SgmVolume& v, int x, int y, int qx, int qy, bool has_q, con
       continue;
     }
     if (q_count == 0) {
-      lp[k] = cost[k];
+      lp[k] = static_cast<std::uint16_t>(v.cost_value(x, y, k));
       continue;
     }
     const int d = lo + k;
     const int best = std::min({l_q(d), l_q(d - 1) + config.p1, l_q(d + 1) + config.p1, m + p2});
-    lp[k] = static_cast<std::uint16_t>(cost[k] + best - m);
+    lp[k] = static_cast<std::uint16_t>(v.cost_value(x, y, k) + best - m);
   }
 }
 

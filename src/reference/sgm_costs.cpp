@@ -14,10 +14,9 @@ void sgm_costs(const CensusCodes& left, const CensusCodes& right, const Plane<st
       const int count = band.hi - band.lo + 1;
       volume.lo.at(x, y) = static_cast<std::int16_t>(band.lo);
       volume.count.at(x, y) = static_cast<std::int16_t>(count);
-      std::uint16_t* cost = volume.cost_at(x, y);
       for (int k = 0; k < volume.stride; ++k) {
         if (k >= count) {
-          cost[k] = kSgmInf;
+          volume.set_cost(x, y, k, kSgmInf);
           continue;
         }
         const int d = band.lo + k;
@@ -31,7 +30,7 @@ void sgm_costs(const CensusCodes& left, const CensusCodes& right, const Plane<st
               c += std::popcount(left.plane[word].at(xl, yy) ^ right.plane[word].at(xr, yy));
           }
         }
-        cost[k] = static_cast<std::uint16_t>(c);
+        volume.set_cost(x, y, k, c);
       }
     }
   }

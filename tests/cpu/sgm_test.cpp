@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <random>
 
+#include "level_plan.hpp"
 #include "test_util.hpp"
 
 namespace mctstereo::test {
@@ -21,15 +22,20 @@ using detail::SgmScratch;
 using detail::SgmSelectConfig;
 using detail::SgmVolume;
 
-// A volume with its own storage.
+// A volume with its own storage: 16-bit costs, or bytes (SgmVolume::use_byte_costs()).
 struct OwnedVolume {
   SgmVolume v;
   std::unique_ptr<std::uint16_t[], detail::FreeDeleter> cost, sum;
-  OwnedVolume(int w, int h, int band, int words) {
+  std::unique_ptr<std::uint8_t[], detail::FreeDeleter> cost8;
+  OwnedVolume(int w, int h, int band, int words, bool byte_costs = false) {
     const std::size_t n = SgmVolume::entries_for(w, h, band);
     cost = detail::allocate_aligned<std::uint16_t>(n);
     sum = detail::allocate_aligned<std::uint16_t>(n);
     v.reset(w, h, band, words, cost.get(), sum.get());
+    if (byte_costs) {
+      cost8 = detail::allocate_aligned<std::uint8_t>(n);
+      v.use_byte_costs(cost8.get());
+    }
   }
 };
 
@@ -182,13 +188,15 @@ ShiftedPair edge_pair(int w, int h, std::uint32_t seed, int d0, int d1) {
   return p;
 }
 
+// byte_costs: the volume's costs in bytes (the case's costs must lie below kSgmInf8); the result
+// holds them as 16-bit values either way.
 template <typename Stages>
 SgmResult run_stages(const SgmCase& c, const ShiftedPair& pair, const Plane<std::int16_t>* prior, int threads,
-                     Stages stages, const detail::TemporalPrior& temporal = {}) {
+                     Stages stages, const detail::TemporalPrior& temporal = {}, bool byte_costs = false) {
   const int words = detail::census_words(c.census);
   const detail::CensusCodes left = reference_census(pair.left, c.census, CensusKind::Census);
   const detail::CensusCodes right = reference_census(pair.right, c.census, CensusKind::Census);
-  OwnedVolume o(c.w, c.h, c.max_band, words);
+  OwnedVolume o(c.w, c.h, c.max_band, words, byte_costs);
   SgmVolume& v = o.v;
   const SgmBandConfig band{c.dmin, c.dmax, c.radius, c.prior_size, c.max_band, temporal};
   auto scratch = make_scratch(stages.scratch_bytes(c.w, c.h, v.stride), threads);
@@ -204,7 +212,11 @@ SgmResult run_stages(const SgmCase& c, const ShiftedPair& pair, const Plane<std:
       r.count.at(x, y) = v.count.at(x, y);
     }
   const std::size_t n = SgmVolume::entries_for(c.w, c.h, c.max_band);
-  r.cost.assign(v.cost, v.cost + n);
+  r.cost.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto slot = static_cast<int>(i / static_cast<std::size_t>(v.stride));
+    r.cost[i] = static_cast<std::uint16_t>(v.cost_value(slot % c.w, slot / c.w, static_cast<int>(i % v.stride)));
+  }
   r.sum.assign(v.sum, v.sum + n);
   return r;
 }
@@ -338,16 +350,56 @@ TEST(SgmStages, CpuEqualsReference) {
     for (int y = 0; y < c.h; ++y)
       for (int x = 0; x < c.w; ++x) valid += ref.left.at(x, y) != kInvalid;
     EXPECT_GT(valid, 0) << describe(c);
+    // Byte costs wherever the case's costs fit them, as the pipeline takes them: the reference
+    // with them equals itself with 16-bit costs, and cpu equals both.
+    const bool bytes = detail::sgm_byte_costs(c.shd, c.census);
+    if (bytes) expect_equal(ref, run_stages(c, pair, p, 1, ReferenceStages{}, {}, true), describe(c) + ", byte costs");
     const int saved = omp_get_max_threads();
     for_each_simd_target([&](const std::string& target) {
       for (int threads : {1, 2}) {
         omp_set_num_threads(threads);
-        expect_equal(ref, run_stages(c, pair, p, threads, CpuStages{}),
-                     describe(c) + " on " + target + ", " + std::to_string(threads) + " thread(s)");
+        for (bool byte_costs : {false, true}) {
+          if (byte_costs && !bytes) continue;
+          expect_equal(ref, run_stages(c, pair, p, threads, CpuStages{}, {}, byte_costs),
+                       describe(c) + " on " + target + ", " + std::to_string(threads) + " thread(s)" +
+                           (byte_costs ? ", byte costs" : ""));
+        }
       }
     });
     omp_set_num_threads(saved);
   }
+}
+
+TEST(SgmStages, ByteCostsWhereEveryCostFits) {
+  // CT 5x5 (24 bits) with 3x3 boxes: at most 216, bytes; 5x5 boxes: 600, 16 bits. 255 is the
+  // byte costs' "not a candidate", so a largest cost of 255 takes 16 bits.
+  EXPECT_EQ(detail::sgm_max_cost(3, 5), 216);
+  EXPECT_TRUE(detail::sgm_byte_costs(3, 5));
+  EXPECT_TRUE(detail::sgm_byte_costs(1, 9));   // 80
+  EXPECT_TRUE(detail::sgm_byte_costs(3, 3));   // 72
+  EXPECT_FALSE(detail::sgm_byte_costs(5, 5));  // 600
+  EXPECT_FALSE(detail::sgm_byte_costs(3, 7));  // 432
+  // The plan: quality's three levels take bytes; with a 5x5 box at the finest level that level
+  // takes 16 bits, and the storage is sized for the largest of entries x entry size.
+  StereoParams q = preset("quality");
+  q.num_disparities = 64;
+  const detail::LevelPlan plan = detail::plan_levels(q, 640, 480, true);
+  for (const detail::LevelSpec& L : plan.levels) EXPECT_TRUE(L.sgm_byte_costs);
+  EXPECT_EQ(plan.sgm_cost_bytes, plan.sgm_entries);
+  q.shd_window = 5;
+  const detail::LevelPlan wide = detail::plan_levels(q, 640, 480, true);
+  EXPECT_FALSE(wide.finest().sgm_byte_costs);
+  EXPECT_TRUE(wide.levels[1].sgm_byte_costs);
+  EXPECT_EQ(wide.sgm_cost_bytes, 2 * wide.sgm_entries);
+  // A byte volume reads back kSgmInf past the count and the values below kSgmInf8 as written.
+  OwnedVolume o(2, 1, 3, 1, true);
+  o.v.set_cost(0, 0, 0, 254);
+  o.v.set_cost(0, 0, 1, kSgmInf);
+  o.v.set_cost(1, 0, 2, 0);
+  EXPECT_EQ(o.v.cost_value(0, 0, 0), 254);
+  EXPECT_EQ(o.v.cost_value(0, 0, 1), kSgmInf);
+  EXPECT_EQ(o.v.cost_value(1, 0, 2), 0);
+  EXPECT_EQ(o.cost8[1], detail::kSgmInf8);
 }
 
 // The bands with the temporal prior (every case with a coarser prior): a previous map near twice
