@@ -38,8 +38,7 @@ struct LevelSpec {
   bool right_map = false; ///< the right view's map is made here (both views are matched)
   int sgm_band = 0;       ///< band SGM: most candidates of a pixel (0 without SGM)
   int sgm_stride = 0;     ///< band SGM: entries per pixel slot
-  /// Band SGM on the host backends: costs in bytes (sgm_byte_costs() of the level's box and the
-  /// census); the opencl backend keeps 16-bit costs.
+  /// Band SGM: costs in bytes (sgm_byte_costs() of the level's box and the census).
   bool sgm_byte_costs = false;
   /// The temporal prior narrows this level's search (StereoParams::temporal; a level with a coarser
   /// prior whose radius exceeds the temporal radius): it keeps its maps of the previous frame.
@@ -55,7 +54,7 @@ struct LevelPlan {
   std::vector<LevelSpec> levels;  ///< levels[0] is the finest (the working scale)
   int census_words = 1;
   std::size_t sgm_entries = 0;     ///< band SGM: cost (and sum) entries of the largest volume
-  std::size_t sgm_cost_bytes = 0;  ///< band SGM: bytes of the largest volume's costs (host backends)
+  std::size_t sgm_cost_bytes = 0;  ///< band SGM: bytes of the largest volume's costs
   int sgm_max_stride = 16;      ///< band SGM: the widest slot
   int sgm_levels = 0;           ///< levels that aggregate by SGM (the coarsest ones)
   int box_range = 0;            ///< most disparities of a box level (0: none)

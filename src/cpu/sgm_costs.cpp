@@ -85,7 +85,6 @@ namespace hn = hwy::HWY_NAMESPACE;
 
 using DU32 = hn::CappedTag<std::uint32_t, 16>;
 using DI32 = hn::RebindToSigned<DU32>;
-using DU16 = hn::Rebind<std::uint16_t, DU32>;
 
 void MirrorCodes(const CensusCodes& right, SgmVolume& v) {
   const int w = v.width, h = v.height;

@@ -309,22 +309,25 @@ void Pipeline::allocate_sgm_planes(Level& L) {
   L.sgm.height = L.height;
   L.sgm.band = L.sgm_band;
   L.sgm.stride = L.sgm_stride;
+  L.sgm.byte_costs = L.sgm_byte_costs;
   plane(L.sgm.lo, L.width, L.height);
   plane(L.sgm.count, L.width, L.height);
 }
 
 // The cost, sum and line scratch buffers every level's volume uses, sized for the largest.
 void Pipeline::allocate_sgm_storage() {
-  std::size_t entries = 1, scratch = 1;
+  std::size_t entries = 1, cost_bytes = 1, scratch = 1;
   for (const Level& L : levels_) {
     if (!L.is_sgm) continue;
-    entries = std::max(entries, SgmVolume::entries_for(L.width, L.height, L.sgm.band));
+    const std::size_t level_entries = SgmVolume::entries_for(L.width, L.height, L.sgm.band);
+    entries = std::max(entries, level_entries);
+    cost_bytes = std::max(cost_bytes, level_entries * (L.sgm.byte_costs ? 1 : 2));
     scratch = std::max(scratch, DeviceSgmVolume::scratch_entries_for(L.width, L.height, L.sgm.band));
   }
-  const cl::Buffer cost = rt_->buffer(entries * sizeof(std::uint16_t));
+  const cl::Buffer cost = rt_->buffer(cost_bytes);
   const cl::Buffer sum = rt_->buffer(entries * sizeof(std::uint16_t));
   const cl::Buffer lines = rt_->buffer(scratch * sizeof(std::uint16_t));
-  device_bytes_ += (2 * entries + scratch) * sizeof(std::uint16_t);
+  device_bytes_ += cost_bytes + (entries + scratch) * sizeof(std::uint16_t);
   for (Level& L : levels_) {
     if (!L.is_sgm) continue;
     L.sgm.cost = cost;

@@ -63,6 +63,7 @@ void SgmCosts::run(const DeviceCodes& left, const DeviceCodes& right, const Devi
   set_args_from(14, config.dmin, config.dmax, config.radius, config.prior_size, config.max_band, shd_window / 2,
                 volume.lo.buffer, volume.count.buffer, volume.lo.stride, volume.cost, volume.stride);
   set_temporal_args(25, temporal);
+  set_args_from(33, volume.byte_costs ? 1 : 0);
   enqueue(pixels_of(w, h), cl::NDRange(16, 4), "match");
 }
 
@@ -77,6 +78,7 @@ void SgmAggregate::run(const DevicePlane<std::uint8_t>& gray, const SgmPathConfi
   set_args(gray.buffer, gray.stride, w, h, volume.lo.buffer, volume.count.buffer, volume.lo.stride, volume.cost,
            volume.sum, volume.stride, volume.scratch);
   set_args_from(13, config.p1, config.p2, config.p2_k);
+  set_args_from(17, volume.byte_costs ? 1 : 0);
   // The in-order queue runs the directions one after the other: each adds into the sums.
   for (int r = 0; r < config.paths; ++r) {
     const int dx = kSgmSteps[r][0], dy = kSgmSteps[r][1];

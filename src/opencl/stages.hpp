@@ -224,6 +224,8 @@ struct DeviceSgmVolume {
   int stride = 0;  ///< entries per pixel slot: SgmVolume::stride_for(band)
   DevicePlane<std::int16_t> lo, count;
   cl::Buffer cost, sum;
+  /// The costs are bytes (SgmVolume::use_byte_costs(): every cost of the level below 255).
+  bool byte_costs = false;
   cl::Buffer scratch;  ///< sgm_aggregate: 2 x stride entries per path line
   /// Entries of the line scratch for a level.
   static std::size_t scratch_entries_for(int w, int h, int band_width) {

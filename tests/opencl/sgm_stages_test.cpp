@@ -60,8 +60,10 @@ long first_mismatch(const std::uint16_t* a, const std::vector<std::uint16_t>& b)
   return -1;
 }
 
-void expect_stages_equal(Runtime& rt, const StageCase& c) {
-  SCOPED_TRACE(name_of(c));
+// byte_costs: the device volume keeps its costs in bytes (the case's costs must lie below 255);
+// the reference's 16-bit costs are compared with them entry by entry.
+void expect_stages_equal(Runtime& rt, const StageCase& c, bool byte_costs) {
+  SCOPED_TRACE(name_of(c) + (byte_costs ? ", byte costs" : ""));
   const ShiftedPair pair = shifted_pair(c.w, c.h, 7 + c.w, std::max(0, (c.dmin + c.dmax) / 2));
   const detail::CensusCodes left = reference_census(pair.left, c.census_window, CensusKind::Census);
   const detail::CensusCodes right = reference_census(pair.right, c.census_window, CensusKind::Census);
@@ -122,7 +124,8 @@ void expect_stages_equal(Runtime& rt, const StageCase& c) {
   dev.width = c.w, dev.height = c.h, dev.band = c.max_band, dev.stride = host.stride;
   dev.lo = marked_plane<std::int16_t>(rt, c.w, c.h);
   dev.count = marked_plane<std::int16_t>(rt, c.w, c.h);
-  dev.cost = rt.buffer(entries * 2);
+  dev.byte_costs = byte_costs;
+  dev.cost = rt.buffer(entries * (byte_costs ? 1 : 2));
   dev.sum = rt.buffer(entries * 2);
   dev.scratch = rt.buffer(DeviceSgmVolume::scratch_entries_for(c.w, c.h, c.max_band) * 2);
   const DeviceCodes dl = to_device_codes(rt, left), dr = to_device_codes(rt, right);
@@ -136,7 +139,13 @@ void expect_stages_equal(Runtime& rt, const StageCase& c) {
   const detail::opencl::DeviceTemporal dtemporal{&dprevious, &gray, &dprevious_image, c.temporal_radius, 12};
   detail::opencl::SgmCosts(rt, c.popcount)
       .run(dl, dr, c.prior ? &dcoarse : nullptr, band, c.shd_window, dev, temporal ? &dtemporal : nullptr);
-  const std::vector<std::uint16_t> got_cost = read_buffer<std::uint16_t>(rt, dev.cost, entries);
+  std::vector<std::uint16_t> got_cost(entries);
+  if (byte_costs) {
+    const std::vector<std::uint8_t> bytes = read_buffer<std::uint8_t>(rt, dev.cost, entries);
+    for (std::size_t i = 0; i < entries; ++i) got_cost[i] = bytes[i] == detail::kSgmInf8 ? detail::kSgmInf : bytes[i];
+  } else {
+    got_cost = read_buffer<std::uint16_t>(rt, dev.cost, entries);
+  }
   detail::opencl::SgmAggregate(rt).run(gray, paths, dev);
   detail::opencl::SgmSelect(rt).run(dev, select, c.dmin, c.dmax, got_left, &got_right, &got_margin);
 
@@ -191,7 +200,8 @@ TEST(OpenclSgmStages, EqualReference) {
   };
   for (const StageCase& c : cases) {
     if (c.popcount == builtin && !rt->device().has_popcount) continue;
-    expect_stages_equal(*rt, c);
+    expect_stages_equal(*rt, c, false);
+    if (detail::sgm_byte_costs(c.shd_window, c.census_window)) expect_stages_equal(*rt, c, true);
   }
 }
 

@@ -5,7 +5,9 @@
 // Options: -DPOPCOUNT_SWAR=0 or 1 (as match.cl).
 //
 // The volume: pixel (x, y) holds count(x, y) candidates lo(x, y) .. lo + count - 1 in a slot of
-// `slot` 16-bit entries at (y W + x) slot of cost and sum; entries past count hold SGM_INF. Codes
+// `slot` entries at (y W + x) slot of cost and sum; entries past count hold SGM_INF. Sums are
+// 16-bit; costs too, or bytes where every cost of the level is below 255 (byte_costs != 0, as
+// sgm_byte_costs() says; 255 then marks the entries past count). Codes
 // are planar 32-bit words (census.cl), rows `code_stride` elements apart. All arithmetic is in
 // int, as the reference: validate() bounds every in-band path value and sum below 0xFFFF.
 
@@ -108,7 +110,7 @@ __kernel void sgm_costs(__global const uint* left0, __global const uint* left1, 
                         __global short* count_plane, int plane_stride, __global ushort* cost, int slot,
                         __global const short* previous_map, int previous_map_stride, __global const uchar* image,
                         int image_stride, __global const uchar* previous_image, int previous_image_stride,
-                        int temporal_radius, int temporal_threshold) {
+                        int temporal_radius, int temporal_threshold, int byte_costs) {
   const int x = (int)get_global_id(0), y = (int)get_global_id(1);
   if (x >= width || y >= height) return;
   // The temporal prior (previous_map != 0, with a coarser prior only): the previous frame's band.
@@ -122,10 +124,15 @@ __kernel void sgm_costs(__global const uint* left0, __global const uint* left1, 
   const int count = band.y - band.x + 1;
   lo_plane[(size_t)y * plane_stride + x] = (short)band.x;
   count_plane[(size_t)y * plane_stride + x] = (short)count;
-  __global ushort* out = cost + ((size_t)y * width + x) * slot;
+  const size_t at = ((size_t)y * width + x) * slot;
+  __global ushort* out = cost + at;
+  __global uchar* out8 = (__global uchar*)cost + at;
   for (int k = 0; k < slot; ++k) {
     if (k >= count) {
-      out[k] = SGM_INF;
+      if (byte_costs)
+        out8[k] = 255;
+      else
+        out[k] = SGM_INF;
       continue;
     }
     const int d = band.x + k;
@@ -139,7 +146,10 @@ __kernel void sgm_costs(__global const uint* left0, __global const uint* left1, 
         if (words > 2) c += bits_of(left2[xl] ^ right2[xr]);
       }
     }
-    out[k] = (ushort)c;
+    if (byte_costs)
+      out8[k] = (uchar)c;
+    else
+      out[k] = (ushort)c;
   }
 }
 
@@ -168,7 +178,7 @@ int2 line_start(int line, int dx, int dy, int width, int height) {
 __kernel void sgm_aggregate(__global const uchar* gray, int gray_stride, int width, int height,
                             __global const short* lo_plane, __global const short* count_plane, int plane_stride,
                             __global const ushort* cost, __global ushort* sum, int slot, __global ushort* scratch,
-                            int dx, int dy, int p1, int p2, int p2_k, int first) {
+                            int dx, int dy, int p1, int p2, int p2_k, int first, int byte_costs) {
   const int line = (int)get_global_id(0);
   if (line >= (dy == 0 ? height : dx == 0 ? width : width + height - 1)) return;
   const int2 start = line_start(line, dx, dy, width, height);
@@ -179,7 +189,9 @@ __kernel void sgm_aggregate(__global const uchar* gray, int gray_stride, int wid
     const size_t p = (size_t)y * plane_stride + x;
     const int lo = lo_plane[p], count = count_plane[p];
     const int g = gray[(size_t)y * gray_stride + x];
-    const __global ushort* c = cost + ((size_t)y * width + x) * slot;
+    const size_t at = ((size_t)y * width + x) * slot;
+    const __global ushort* c = cost + at;
+    const __global uchar* c8 = (const __global uchar*)cost + at;
     const __global ushort* lq = buf[1 - which];
     __global ushort* lp = buf[which];
     __global ushort* s = sum + ((size_t)y * width + x) * slot;
@@ -187,7 +199,7 @@ __kernel void sgm_aggregate(__global const uchar* gray, int gray_stride, int wid
     const int pen2 = q_count > 0 ? p2_at(p1, p2, p2_k, g, q_gray) : 0;
     int m_next = 0x7FFFFFFF;
     for (int k = 0; k < count; ++k) {
-      int v = c[k];
+      int v = byte_costs ? c8[k] : c[k];  // in-band costs: below 255 in bytes
       if (q_count > 0) {
         // Predecessor's values at d, d - 1 and d + 1 by their index in its band; FAR outside it.
         const int j = lo + k - q_lo;
