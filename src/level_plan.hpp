@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <utility>
 #include <vector>
 
 #include "mctstereo/params.hpp"
@@ -65,6 +66,22 @@ struct LevelPlan {
   /// The largest SGM level (its width sizes the SGM stages' scratch); only when sgm_levels > 0.
   const LevelSpec& finest_sgm() const { return levels[levels.size() - static_cast<std::size_t>(sgm_levels)]; }
 };
+
+/// The temporal prior's hand-over between frames, for the host driver and the OpenCL pipeline
+/// alike: the last frame's maps and images of the levels it narrows become this frame's previous
+/// ones, by swaps (the planes this frame writes next held the frame before). Level: a LevelSpec
+/// with disparity[], previous[], image[] and previous_image[]; finest_image(v): level 0's image of
+/// view v (the last working-scale reduction, which the level does not hold itself).
+template <class Level, class FinestImage>
+void swap_in_previous_maps(std::vector<Level>& levels, FinestImage finest_image) {
+  for (std::size_t l = 0; l < levels.size(); ++l) {
+    Level& L = levels[l];
+    for (int v = 0; v < L.temporal_views(); ++v) {
+      std::swap(L.disparity[v], L.previous[v]);
+      std::swap(l == 0 ? finest_image(v) : L.image[v], L.previous_image[v]);
+    }
+  }
+}
 
 /// The band width of a level for SGM: its whole range at the coarsest level, else at most
 /// max_band; never more than the candidates a pixel of the level can have (its width).

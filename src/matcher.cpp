@@ -233,8 +233,10 @@ struct Matcher::Impl {
       sgm_sum = detail::allocate_aligned<std::uint16_t>(plan.sgm_entries);
       for (Level& L : levels) {
         if (!L.is_sgm) continue;
-        L.sgm.cost = reinterpret_cast<std::uint16_t*>(sgm_cost.get());
-        if (L.sgm_byte_costs) L.sgm.use_byte_costs(sgm_cost.get());
+        if (L.sgm_byte_costs)
+          L.sgm.use_byte_costs(sgm_cost.get());
+        else
+          L.sgm.cost = reinterpret_cast<std::uint16_t*>(sgm_cost.get());
         L.sgm.sum = sgm_sum.get();
       }
       sgm_scratch.threads = threads;
@@ -495,14 +497,8 @@ struct Matcher::Impl {
   // frame's previous ones (swaps: the planes this frame writes next held the frame before).
   void take_previous_maps() {
     used_previous = params.temporal && temporal_history;
-    if (!used_previous) return;
-    for (std::size_t l = 0; l < levels.size(); ++l) {
-      Level& L = levels[l];
-      for (int v = 0; v < L.temporal_views(); ++v) {
-        std::swap(L.disparity[v], L.previous[v]);
-        std::swap(l == 0 ? full_gray[v].back() : L.image[v], L.previous_image[v]);
-      }
-    }
+    if (used_previous)
+      detail::swap_in_previous_maps(levels, [&](int v) -> Plane<std::uint8_t>& { return full_gray[v].back(); });
   }
 
   // Census and local matching of level l: each view searches around its own coarser map.

@@ -416,14 +416,8 @@ DeviceTemporal Pipeline::temporal_prior(int l, int v) const {
 // writes the new gray images.
 void Pipeline::take_previous_maps() {
   used_previous_ = params_.temporal && temporal_history_;
-  if (!used_previous_) return;
-  for (std::size_t l = 0; l < levels_.size(); ++l) {
-    Level& L = levels_[l];
-    for (int v = 0; v < L.temporal_views(); ++v) {
-      std::swap(L.disparity[v], L.previous[v]);
-      std::swap(l == 0 ? full_gray_[v].back() : L.image[v], L.previous_image[v]);
-    }
-  }
+  if (used_previous_)
+    swap_in_previous_maps(levels_, [&](int v) -> DevicePlane<std::uint8_t>& { return full_gray_[v].back(); });
 }
 
 // Band SGM at level l (Matcher::Impl::match_sgm): band costs around the coarser left map, the
