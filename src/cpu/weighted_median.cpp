@@ -3,8 +3,10 @@
 // over rows.
 //
 // Per vector: the weight of each sample is lut[max over channels |C(p) - C(q)|] (0 for invalid
-// samples), looked up 16 entries at a time with TableLookupBytes (only the blocks of the table
-// that hold a non-zero entry: 4 of 16 with sigma 10). The weighted median is then found by a
+// samples), the colour distance taken in bytes, then looked up: 128 byte entries at once with
+// AVX512-VBMI where the table ends below 128 (sigma <= 26), else 64 u16 entries at once on
+// AVX-512 or 16 at a time with TableLookupBytes (only the blocks of the table that hold a
+// non-zero entry: 4 of 16 with sigma 10). The weighted median is then found by a
 // binary search over the whole disparities, per lane: with S(d) the weight of the samples whose
 // whole disparity is <= d (monotone in d), the answer is the smallest d in [lo, hi] (the lane's
 // smallest and largest sampled disparity) with S(d) >= ceil(total / 2); each pass halves every
@@ -99,6 +101,55 @@ HWY_INLINE VU16 LookUpWide(const WideTable& t, VU16 k) {
 #define MCTSTEREO_WM_WIDE_TABLE 1
 #endif
 
+#if HWY_TARGET == HWY_AVX3_DL
+// AVX512-VBMI: VPERMI2B looks up 128 byte entries held in two registers, so wherever the table
+// is zero from k = 128 on (sigma <= 26) the distances need not be widened first: one lookup of
+// the 32 byte distances of a vector, and the widening to u16 zeroes the lanes with k >= 128 (the
+// lookup reads their entry k - 128). Three instructions per vector where LookUpWide takes six
+// and three widenings of the colours before it.
+struct ByteTable {
+  __m512i low, high;  // entries 0..63, 64..127
+};
+
+HWY_INLINE ByteTable MakeByteTable(const std::uint8_t* lut) {
+  return {_mm512_loadu_si512(lut), _mm512_loadu_si512(lut + 64)};
+}
+
+HWY_INLINE VU16 LookUpBytes(const ByteTable& t, hn::Vec<DC8> k) {
+  // The upper half of the index is undefined and so is the upper half of the result, unused.
+  const __m256i entry = _mm512_castsi512_si256(_mm512_permutex2var_epi8(t.low, _mm512_castsi256_si512(k.raw), t.high));
+  const __mmask32 below_128 = _mm256_testn_epi8_mask(k.raw, _mm256_set1_epi8(static_cast<char>(0x80)));
+  return VU16{_mm512_maskz_cvtepu8_epi16(below_128, entry)};
+}
+#define MCTSTEREO_WM_BYTE_TABLE 1
+#endif
+
+// The weight tables of one frame, in the forms this target looks up.
+struct WeightTables {
+  const std::uint8_t* lut;
+  int blocks;  // 16-entry blocks of lut up to its last non-zero entry
+#ifdef MCTSTEREO_WM_WIDE_TABLE
+  WideTable wide;
+#endif
+#ifdef MCTSTEREO_WM_BYTE_TABLE
+  ByteTable bytes;
+#endif
+};
+
+// lut[k] of the byte distances k; kBytes: the whole table lies in lut[0..127] (blocks <= 8).
+template <bool kBytes>
+HWY_INLINE VU16 Weight(const WeightTables& t, hn::Vec<DC8> k) {
+#ifdef MCTSTEREO_WM_BYTE_TABLE
+  if constexpr (kBytes) return LookUpBytes(t.bytes, k);
+#endif
+  const VU16 k16 = hn::PromoteTo(DU16(), k);
+#ifdef MCTSTEREO_WM_WIDE_TABLE
+  return LookUpWide(t.wide, k16);
+#else
+  return LookUp(t.lut, t.blocks, k16);
+#endif
+}
+
 // Whole disparity (v + 8) >> 4 of Q4 lanes, without the overflow of v + 8: ((v >> 1) + 4) >> 3.
 HWY_INLINE V16 Whole(V16 v) {
   return hn::ShiftRight<3>(hn::Add(hn::ShiftRight<1>(v), hn::Set(D16(), 4)));
@@ -106,10 +157,9 @@ HWY_INLINE V16 Whole(V16 v) {
 
 // One vector of output pixels. map[j], colour[c][j]: sample row j (of 2 K + 1), at the column of
 // the vector's first pixel; offsets dx = -reach, -reach + step, ..., reach are read from there.
-template <int kChannels>
+template <int kChannels, bool kByteTable>
 HWY_INLINE V16 MedianVector(const std::int16_t* const* map, const std::uint8_t* const (*colour)[kMaxRows], int rows,
-                            int reach, int step, const std::uint8_t* HWY_RESTRICT lut, int blocks,
-                            const void* wide_table, std::int16_t* HWY_RESTRICT disp,
+                            int reach, int step, const WeightTables& tables, std::int16_t* HWY_RESTRICT disp,
                             std::uint16_t* HWY_RESTRICT weight) {
   const D16 d;
   const DU16 du16;
@@ -117,8 +167,10 @@ HWY_INLINE V16 MedianVector(const std::int16_t* const* map, const std::uint8_t* 
   const std::size_t n = hn::Lanes(d);
   const int centre = rows / 2;
   const V16 invalid = hn::Set(d, kInvalid);
-  VecSlot<DU16> centre_colour[kChannels];
-  for (int c = 0; c < kChannels; ++c) centre_colour[c] = hn::PromoteTo(du16, hn::LoadU(dc8, colour[c][centre]));
+  // The colour distance max |C(p) - C(q)| <= 255 is taken in bytes and widened once (or not at
+  // all: LookUpBytes).
+  VecSlot<DC8> centre_colour[kChannels];
+  for (int c = 0; c < kChannels; ++c) centre_colour[c] = hn::LoadU(dc8, colour[c][centre]);
 
   // Weights and whole disparities of the samples; the lane's range and total.
   V16 lo = hn::Set(d, 32767), hi = hn::Set(d, -32768);
@@ -127,19 +179,12 @@ HWY_INLINE V16 MedianVector(const std::int16_t* const* map, const std::uint8_t* 
   for (int j = 0; j < rows; ++j) {
     for (int dx = -reach; dx <= reach; dx += step, ++s) {
       const V16 v = hn::LoadU(d, map[j] + dx);
-      VU16 k = hn::Zero(du16);
+      auto k = hn::Zero(dc8);
       for (int c = 0; c < kChannels; ++c) {
-        const VU16 q = hn::PromoteTo(du16, hn::LoadU(dc8, colour[c][j] + dx));
-        const VU16 diff = hn::Or(hn::SaturatedSub(q, centre_colour[c]), hn::SaturatedSub(centre_colour[c], q));
-        k = hn::Max(k, diff);
+        const auto q = hn::LoadU(dc8, colour[c][j] + dx);
+        k = hn::Max(k, hn::Or(hn::SaturatedSub(q, centre_colour[c]), hn::SaturatedSub(centre_colour[c], q)));
       }
-#ifdef MCTSTEREO_WM_WIDE_TABLE
-      (void)lut;
-      const VU16 looked_up = LookUpWide(*static_cast<const WideTable*>(wide_table), k);
-#else
-      (void)wide_table;
-      const VU16 looked_up = LookUp(lut, blocks, k);
-#endif
+      const VU16 looked_up = Weight<kByteTable>(tables, k);
       const VU16 w = hn::IfThenZeroElse(hn::RebindMask(du16, hn::Eq(v, invalid)), looked_up);
       const V16 dv = Whole(v);
       const auto counts = hn::RebindMask(d, hn::Gt(hn::BitCast(d, w), hn::Zero(d)));  // w <= 64
@@ -175,25 +220,15 @@ HWY_INLINE V16 MedianVector(const std::int16_t* const* map, const std::uint8_t* 
   return hn::IfThenElse(keeps, own, hn::ShiftLeft<4>(lo));
 }
 
-template <int kChannels>
+template <int kChannels, bool kByteTable>
 void MedianRows(const Plane<std::int16_t>& src, const ColourPlanes& colour, const WeightedMedianConfig& config,
-                Plane<std::int16_t>& dst) {
+                const WeightTables& tables, Plane<std::int16_t>& dst) {
   const D16 d;
   const int w = src.width(), h = src.height();
   const int n = static_cast<int>(hn::Lanes(d));
   constexpr std::size_t kMaxLanes = hn::MaxLanes(D16());
   const int step = config.step, reach = config.radius / step * step;
   const int rows = 2 * (reach / step) + 1;
-  int blocks = 0;
-  for (int k = 0; k < 256; ++k)
-    if (config.lut[k] != 0) blocks = k / 16 + 1;
-  const std::uint8_t* lut = config.lut.data();
-#ifdef MCTSTEREO_WM_WIDE_TABLE
-  const WideTable wide = MakeWideTable(lut, blocks);
-  const void* wide_table = &wide;
-#else
-  const void* wide_table = nullptr;
-#endif
 
   parallel_for(h, 4, [&](int y0, int y1) {
     for (int y = y0; y < y1; ++y) {
@@ -232,7 +267,7 @@ void MedianRows(const Plane<std::int16_t>& src, const ColourPlanes& colour, cons
             for (int c = 0; c < kChannels; ++c) col[c][j] = border_colour[c][j] + reach;
           }
         }
-        const V16 m = MedianVector<kChannels>(map, col, rows, reach, step, lut, blocks, wide_table, disp, weight);
+        const V16 m = MedianVector<kChannels, kByteTable>(map, col, rows, reach, step, tables, disp, weight);
         if (x0 + n <= w) {
           hn::StoreU(m, d, out + x0);
         } else {
@@ -246,11 +281,28 @@ void MedianRows(const Plane<std::int16_t>& src, const ColourPlanes& colour, cons
 
 void WeightedMedian(const Plane<std::int16_t>& src, const ColourPlanes& colour, const WeightedMedianConfig& config,
                     Plane<std::int16_t>& dst) {
-  if (colour.channels == 3) MedianRows<3>(src, colour, config, dst);
-  else MedianRows<1>(src, colour, config, dst);
+  WeightTables tables;
+  tables.lut = config.lut.data();
+  tables.blocks = 0;
+  for (int k = 0; k < 256; ++k)
+    if (config.lut[k] != 0) tables.blocks = k / 16 + 1;
+#ifdef MCTSTEREO_WM_WIDE_TABLE
+  tables.wide = MakeWideTable(tables.lut, tables.blocks);
+#endif
+#ifdef MCTSTEREO_WM_BYTE_TABLE
+  tables.bytes = MakeByteTable(tables.lut);
+  if (tables.blocks <= 8) {
+    if (colour.channels == 3) MedianRows<3, true>(src, colour, config, tables, dst);
+    else MedianRows<1, true>(src, colour, config, tables, dst);
+    return;
+  }
+#endif
+  if (colour.channels == 3) MedianRows<3, false>(src, colour, config, tables, dst);
+  else MedianRows<1, false>(src, colour, config, tables, dst);
 }
 
 #undef MCTSTEREO_WM_WIDE_TABLE
+#undef MCTSTEREO_WM_BYTE_TABLE
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE
 HWY_AFTER_NAMESPACE();
 
