@@ -179,11 +179,12 @@ HWY_INLINE V16 MedianVector(const std::int16_t* const* map, const std::uint8_t* 
   for (int j = 0; j < rows; ++j) {
     for (int dx = -reach; dx <= reach; dx += step, ++s) {
       const V16 v = hn::LoadU(d, map[j] + dx);
-      auto k = hn::Zero(dc8);
-      for (int c = 0; c < kChannels; ++c) {
+      const auto distance = [&](int c) {
         const auto q = hn::LoadU(dc8, colour[c][j] + dx);
-        k = hn::Max(k, hn::Or(hn::SaturatedSub(q, centre_colour[c]), hn::SaturatedSub(centre_colour[c], q)));
-      }
+        return hn::Or(hn::SaturatedSub(q, centre_colour[c]), hn::SaturatedSub(centre_colour[c], q));
+      };
+      auto k = distance(0);
+      for (int c = 1; c < kChannels; ++c) k = hn::Max(k, distance(c));
       const VU16 looked_up = Weight<kByteTable>(tables, k);
       const VU16 w = hn::IfThenZeroElse(hn::RebindMask(du16, hn::Eq(v, invalid)), looked_up);
       const V16 dv = Whole(v);
