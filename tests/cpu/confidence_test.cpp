@@ -64,8 +64,11 @@ TEST(Confidence, KnownAnswers) {
 TEST(Confidence, CpuEqualsReference) {
   std::uint32_t seed = 4100;
   int compared = 0;
-  for (const auto& [w, h] : awkward_sizes()) {
-    for (const auto& [lo, hi] : {std::pair{0, 16 * 12}, std::pair{-16 * 40, 16 * 40}, std::pair{-16 * 1024, 16 * 2039 + 15}}) {
+  // Plain variables, not structured bindings: the lambda below names them (clang 14 cannot).
+  for (const auto& size : awkward_sizes()) {
+    const int w = size.first, h = size.second;
+    for (const auto& range : {std::pair{0, 16 * 12}, std::pair{-16 * 40, 16 * 40}, std::pair{-16 * 1024, 16 * 2039 + 15}}) {
+      const int lo = range.first, hi = range.second;
       // Right maps near the left one make the agreement term take every value in [0, den].
       const Plane<std::int16_t> left = random_disparity(w, h, ++seed, lo, hi, 0.15);
       Plane<std::int16_t> right = random_disparity(w, h, ++seed, lo, hi, 0.15);
