@@ -301,17 +301,23 @@ Scratch thread_scratch(std::size_t bytes_per_thread, int threads) {
 /// n rounded up to whole 64-byte lines, as the driver sizes scratch slices.
 inline std::size_t whole_lines(std::size_t n) { return (n + 63) / 64 * 64; }
 
+/// Runs fn with 1 and then 2 OpenMP threads, and restores the count; fn receives "N thread(s)"
+/// for its messages. For stages without SIMD dispatch.
+inline void for_one_and_two_threads(const std::function<void(const std::string&)>& fn) {
+  const int saved = omp_get_max_threads();
+  for (int threads : {1, 2}) {
+    omp_set_num_threads(threads);
+    fn(std::to_string(threads) + " thread(s)");
+  }
+  omp_set_num_threads(saved);
+}
+
 /// Runs fn on every SIMD target (as for_each_simd_target) with 1 and then 2 OpenMP threads;
 /// fn receives "TARGET, N thread(s)" for its messages.
 inline void for_each_target_and_threads(const std::function<void(const std::string&)>& fn) {
-  const int saved = omp_get_max_threads();
   for_each_simd_target([&](const std::string& target) {
-    for (int threads : {1, 2}) {
-      omp_set_num_threads(threads);
-      fn(target + ", " + std::to_string(threads) + " thread(s)");
-    }
+    for_one_and_two_threads([&](const std::string& threads) { fn(target + ", " + threads); });
   });
-  omp_set_num_threads(saved);
 }
 
 /// Awkward sizes every stage test runs: odd, tiny, one column, one row, around vector widths.

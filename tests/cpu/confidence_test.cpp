@@ -3,10 +3,7 @@
 // quotient is a multiply by a 32-bit reciprocal) with 1 and 2 threads, awkward sizes, every LR
 // threshold (0 to 16), margins of the level itself and of coarser ones, with and without the
 // right map, and disparities whose match lies outside the row.
-#include <omp.h>
-
 #include <algorithm>
-#include <functional>
 #include <random>
 #include <string>
 
@@ -18,16 +15,6 @@ namespace {
 using detail::kInvalid;
 namespace reference = detail::reference;
 namespace cpu = detail::cpu;
-
-// fn with 1 and then 2 OpenMP threads; fn receives "N thread(s)" for its messages.
-void for_one_and_two_threads(const std::function<void(const std::string&)>& fn) {
-  const int saved = omp_get_max_threads();
-  for (int threads : {1, 2}) {
-    omp_set_num_threads(threads);
-    fn(std::to_string(threads) + " thread(s)");
-  }
-  omp_set_num_threads(saved);
-}
 
 Plane<std::uint8_t> random_margin(int w, int h, int shift, std::uint32_t seed) {
   const int mw = ((w - 1) >> shift) + 1, mh = ((h - 1) >> shift) + 1;
@@ -67,7 +54,8 @@ TEST(Confidence, CpuEqualsReference) {
   // Plain variables, not structured bindings: the lambda below names them (clang 14 cannot).
   for (const auto& size : awkward_sizes()) {
     const int w = size.first, h = size.second;
-    for (const auto& range : {std::pair{0, 16 * 12}, std::pair{-16 * 40, 16 * 40}, std::pair{-16 * 1024, 16 * 2039 + 15}}) {
+    for (const auto& range :
+         {std::pair{0, 16 * 12}, std::pair{-16 * 40, 16 * 40}, std::pair{-16 * 1024, 16 * 2039 + 15}}) {
       const int lo = range.first, hi = range.second;
       // Right maps near the left one make the agreement term take every value in [0, den].
       const Plane<std::int16_t> left = random_disparity(w, h, ++seed, lo, hi, 0.15);
@@ -76,12 +64,14 @@ TEST(Confidence, CpuEqualsReference) {
       for (int y = 0; y < h; ++y)
         for (int x = 0; x < w; ++x) {
           const int v = left.at(x, y), xr = v == kInvalid ? -1 : x - ((v + 8) >> 4);
-          if (xr >= 0 && xr < w && rng() % 3 != 0) right.at(xr, y) = static_cast<std::int16_t>(std::clamp(v + int(rng() % 600) - 300, -32767, 32767));
+          if (xr >= 0 && xr < w && rng() % 3 != 0)
+            right.at(xr, y) = static_cast<std::int16_t>(std::clamp(v + int(rng() % 600) - 300, -32767, 32767));
         }
       for (int shift : {0, 1, 2}) {
         const Plane<std::uint8_t> margin = random_margin(w, h, shift, ++seed);
         for (int threshold = 0; threshold <= 16; ++threshold) {
-          for (const Plane<std::int16_t>* r : {static_cast<const Plane<std::int16_t>*>(&right), static_cast<const Plane<std::int16_t>*>(nullptr)}) {
+          const Plane<std::int16_t>* const right_maps[] = {&right, nullptr};
+          for (const Plane<std::int16_t>* r : right_maps) {
             Plane<std::uint8_t> want(w, h), got(w, h);
             reference::confidence(margin, shift, left, r, threshold, want);
             for_one_and_two_threads([&](const std::string& where) {
