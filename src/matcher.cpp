@@ -151,7 +151,8 @@ struct Matcher::Impl {
   int margin_level = 0;
   Plane<std::uint8_t> margin, confidence_q8;
   Plane<float> out_confidence;
-  bool confidence_current = false;
+  bool confidence_current = false;  // out_confidence holds the last frame's
+  bool confidence_q8_current = false;  // confidence_q8 does (the opencl backend: downloaded)
   bool has_frame = false;  // compute() has run
   // The temporal prior: the levels' maps of the last frame can serve the next one (none after
   // construction and reset_temporal()), and the last frame was matched with them.
@@ -325,6 +326,22 @@ struct Matcher::Impl {
     return l == 0 ? full_gray[v].back() : levels[l].image[v];
   }
 
+  static void copy_map(const Plane<std::int16_t>& src, Plane<std::int16_t>& dst) {
+    detail::cpu::parallel_lines(src.height(), [&](int y0, int y1) {
+      for (int y = y0; y < y1; ++y) std::copy_n(src.row(y), src.width(), dst.row(y));
+    });
+  }
+
+  // Host backends: whether the confidence pass waits for confidence() (a frame of balanced spends
+  // some 4 % on it). It reads the finest maps as the checks left them, before the fill guesses: the
+  // left map is copied into the right view's scratch map, which the frame no longer uses after the
+  // LR check, and the right map stays as it is, since only the left map is refined further. With
+  // compute_right the frame refines the right map too, and without the LR check there is no spare
+  // map: then the frame makes the confidence itself.
+  bool lazy_confidence() const {
+    return need_right && !options.compute_right && levels[0].scratch[1].width() == levels[0].width;
+  }
+
   // Refines the maps of one level. At the finest level the right map only serves the left map's
   // LR check, so unless the caller asked for it, its refinement stops there.
   void refine(Level& L, bool finest) {
@@ -344,10 +361,16 @@ struct Matcher::Impl {
     }
     if (L.speckle > 1)
       for (int v = 0; v < kept; ++v) stages->remove_speckles(L.disparity[v], L.speckle, 16, speckle_scratch);
-    // The confidence of the final map: what survived the checks, before the fill guesses.
-    if (finest && want_confidence)
-      stages->confidence(margin, margin_level, L.disparity[0], need_right ? &L.disparity[1] : nullptr,
-                         params.lr_threshold, confidence_q8);
+    // The confidence of the final map takes what survived the checks, before the fill guesses.
+    if (finest && want_confidence) {
+      if (lazy_confidence()) {
+        copy_map(L.disparity[0], L.scratch[1]);
+      } else {
+        stages->confidence(margin, margin_level, L.disparity[0], need_right ? &L.disparity[1] : nullptr,
+                           params.lr_threshold, confidence_q8);
+        confidence_q8_current = true;
+      }
+    }
     for (int v = 0; v < kept; ++v) stages->fill_invalid(L.disparity[v], params.fill);
     // The colour-weighted median and its 3x3 median take the place of the post-fill median in the
     // left map of the finest level.
@@ -385,6 +408,15 @@ struct Matcher::Impl {
     const detail::SgmSelectConfig select{params.subpixel && l == 0, params.uniqueness_ratio};
     stages->sgm_select(L.sgm, select, sgm_scratch, L.disparity[0], L.right_map ? &L.disparity[1] : nullptr,
                        l == margin_level ? &margin : nullptr);
+  }
+
+  // The last frame's confidence at the working scale (lazy_confidence()), from the maps refine()
+  // left for it.
+  void compute_confidence_q8() {
+    const detail::cpu::PoolScope scope(pool.get());
+    const Level& L = levels[0];
+    stages->confidence(margin, margin_level, L.scratch[1], &L.disparity[1], params.lr_threshold, confidence_q8);
+    confidence_q8_current = true;
   }
 
   // The confidence at the output size (pixels of the working scale replicated s x s).
@@ -464,7 +496,7 @@ struct Matcher::Impl {
 #ifdef MCTSTEREO_HAVE_OPENCL
     if (device) {
       float_current = false;
-      confidence_current = false;
+      confidence_current = confidence_q8_current = false;
       device->compute(left, right, out_q4);
       has_frame = true;
       return;
@@ -523,7 +555,7 @@ struct Matcher::Impl {
   void run_frame(const ImageView& left, const ImageView& right) {
     const ImageView* input[2] = {&left, &right};
     for (double& t : slot_ms) t = 0;
-    confidence_current = false;
+    confidence_current = confidence_q8_current = false;
     Stopwatch frame, clock;
     frame.start();
     clock.start();
@@ -656,8 +688,12 @@ MapView<const float> Matcher::confidence() const {
   if (!impl_->want_confidence || !impl_->has_frame) return {};
 #ifdef MCTSTEREO_HAVE_OPENCL
   // The opencl backend brings the confidence down only when it is asked for.
-  if (impl_->device && !impl_->confidence_current) impl_->device->download_confidence(impl_->confidence_q8);
+  if (impl_->device && !impl_->confidence_q8_current) {
+    impl_->device->download_confidence(impl_->confidence_q8);
+    impl_->confidence_q8_current = true;
+  }
 #endif
+  if (!impl_->confidence_q8_current) impl_->compute_confidence_q8();
   if (!impl_->confidence_current) impl_->write_confidence();
   const auto& p = impl_->out_confidence;
   return {p.row(0), p.width(), p.height(), p.stride()};

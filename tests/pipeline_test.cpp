@@ -367,6 +367,41 @@ TEST(Pipeline, ConfidenceMapOfSgm) {
   EXPECT_EQ(local.confidence().data, nullptr);
 }
 
+// The host backends compute the confidence when confidence() is first called after a frame, from
+// the left map kept before the fill (with compute_right, within the frame): read late (after the
+// disparity maps, or only after the next frame), it is still the last frame's, bit for bit what a
+// matcher that saw only that frame gives; read twice, the same. With and without the right map,
+// SGM and box aggregation, 1 and 2 threads.
+TEST(Pipeline, ConfidenceReadLateIsTheLastFrames) {
+  const StereoPair first = textured_pair(97, 45, 10, 7), second = textured_pair(97, 45, 10, 8);
+  for (const std::string& name : {std::string("balanced"), std::string("quality"), std::string("realtime")}) {
+    StereoParams p = preset(name);
+    p.num_disparities = 16;
+    for (const bool right : {false, true})
+      for (const int threads : {1, 2}) {
+        SCOPED_TRACE(name + (right ? ", compute_right, " : ", ") + std::to_string(threads) + " threads");
+        MatcherOptions options;
+        options.compute_right = right;
+        options.compute_confidence = true;
+        options.threads = threads;
+        Matcher alone(97, 45, p, Backend::Cpu, options), late(97, 45, p, Backend::Cpu, options),
+            each(97, 45, p, Backend::Cpu, options);
+        alone.compute(second.left_view(), second.right_view());
+        late.compute(first.left_view(), first.right_view());
+        (void)late.disparity();
+        late.compute(second.left_view(), second.right_view());
+        (void)late.disparity();
+        each.compute(first.left_view(), first.right_view());
+        const std::vector<std::uint32_t> of_first = confidence_bits(each);
+        each.compute(second.left_view(), second.right_view());
+        EXPECT_EQ(confidence_difference(alone, late), "");
+        EXPECT_EQ(confidence_difference(alone, each), "");
+        EXPECT_EQ(confidence_difference(alone, each), "") << "read twice";
+        EXPECT_NE(of_first, confidence_bits(each)) << "the frames' confidences should differ";
+      }
+  }
+}
+
 // Box aggregation with compute_confidence: the margin of the box costs times the agreement, equal
 // on the reference and cpu backends (1 and 2 threads) for every box preset; mostly high on a clean
 // pair and 0 where no candidate lies in the image. Asking for it leaves the disparity map as it is.
