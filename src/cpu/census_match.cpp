@@ -49,7 +49,7 @@ CodeRows ring_of(std::uint8_t* base, int v, int words, int width, int height) {
 }  // namespace
 
 std::size_t census_match_scratch_bytes(int width, int max_range, int shd_window, int census_words) {
-  return ring_bytes(width, census_words) + match_scratch_bytes(width, max_range, shd_window);
+  return ring_bytes(width, census_words) + prior_rows_bytes(width) + match_scratch_bytes(width, max_range, shd_window);
 }
 
 void census_match(const CensusMatchJob& job, MatchScratch& scratch) {
@@ -58,10 +58,11 @@ void census_match(const CensusMatchJob& job, MatchScratch& scratch) {
   const int words = census_words(job.census.window);
   int half = job.config[0].shd_window / 2;
   if (job.views > 1) half = std::max(half, job.config[1].shd_window / 2);
-  const std::size_t ring = ring_bytes(w, words);
-  // Each thread's slice starts at the next 64-byte boundary; after the rings it must hold the
-  // tile's fixed buffers and one candidate's band: less is a driver bug, not an input.
-  const std::size_t need = ring + match_layout::kFixedBytes + match_layout::kBandBytesPerCandidate;
+  const std::size_t ring = ring_bytes(w, words), rows = prior_rows_bytes(w);
+  // Each thread's slice starts at the next 64-byte boundary; after the rings and the tile row's
+  // ranges it must hold the tile's fixed buffers and one candidate's band: less is a driver bug,
+  // not an input.
+  const std::size_t need = ring + rows + match_layout::kFixedBytes + match_layout::kBandBytesPerCandidate;
   if (aligned_slice_bytes(scratch) < need) std::abort();
   if (t_pool && t_pool->size() > scratch.threads) std::abort();  // a scratch slice per thread
   // Strips of several tile rows, about four per thread (so that the others take over the share
@@ -73,8 +74,9 @@ void census_match(const CensusMatchJob& job, MatchScratch& scratch) {
       strips, 1,
       [&](int s0, int s1) {
         std::uint8_t* base = aligned_slice(scratch, thread_slot());
-        std::uint8_t* tile_mem = base + ring;
-        const std::size_t tile_bytes = aligned_slice_bytes(scratch) - ring;
+        std::uint8_t* prior_rows = base + ring;
+        std::uint8_t* tile_mem = prior_rows + rows;
+        const std::size_t tile_bytes = aligned_slice_bytes(scratch) - ring - rows;
         CodeRows codes[2] = {ring_of(base, 0, words, w, h), ring_of(base, 1, words, w, h)};
         for (int s = s0; s < s1; ++s) {
           const int first = s * per_strip, last = std::min(tile_rows, first + per_strip);
@@ -90,7 +92,7 @@ void census_match(const CensusMatchJob& job, MatchScratch& scratch) {
             for (int v = 0; v < job.views; ++v) {
               const MatchJob tiles = make_match_job(codes[v], codes[1 - v], job.ranges[v], job.config[v],
                                                     *job.disparity[v], v == 0 ? job.margin : nullptr);
-              match_tile_row(tiles, t, tile_mem, tile_bytes);
+              match_tile_row(tiles, t, tile_mem, tile_bytes, prior_rows);
             }
           }
         }

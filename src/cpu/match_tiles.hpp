@@ -95,10 +95,22 @@ inline std::uint8_t* aligned_slice(const MatchScratch& scratch, int slot) {
   return reinterpret_cast<std::uint8_t*>((start + kAlignment - 1) / kAlignment * kAlignment);
 }
 
+/// Entries of a row of search ranges across a level of width w, with the slack that
+/// PriorRangeSegment writes past its end and that the tiles' vector loads read (64-byte rows).
+inline std::size_t prior_row_entries(int width) { return (static_cast<std::size_t>(width) + 64 + 31) / 32 * 32; }
+/// Bytes of the ranges of one tile row's coarse rows (kRows / 2 of them, lo and hi) that
+/// match_tile_row() makes from the prior.
+inline std::size_t prior_rows_bytes(int width) {
+  return 2 * (match_layout::kRows / 2) * prior_row_entries(width) * sizeof(std::int16_t);
+}
+
 /// Matches the tiles of tile row `tile_row` (image rows 16 tile_row ..), left to right, in one
 /// thread's scratch `mem` (64-byte aligned, `bytes` long: at least kFixedBytes and one candidate's
 /// band). The codes of the rows the tiles' windows read must be in job.ref and job.other.
-void match_tile_row(const MatchJob& job, int tile_row, std::uint8_t* mem, std::size_t bytes);
+/// `prior_rows` (prior_rows_bytes(), 64-byte aligned): where a prior alone gives the ranges, they
+/// are made there once for the whole tile row instead of once per tile.
+void match_tile_row(const MatchJob& job, int tile_row, std::uint8_t* mem, std::size_t bytes,
+                    std::uint8_t* prior_rows);
 
 /// The codes of image rows [y_begin, y_end) into dst (rows and their pad columns), as
 /// census_transform() makes them.
