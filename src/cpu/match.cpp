@@ -701,14 +701,14 @@ void MatchTileWith(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t
   }
 }
 
-// With the ranges from the prior alone (no range planes, no temporal prior), each coarse row's
-// ranges are made once across the level, where each tile would make its own segment of them: at
-// the widths of a tile the segment's fixed costs outweighed its work (realtime at 640 x 480: 8 %
-// of the frame in PriorRangeSegment). The values are the same, column by column.
 void MatchTile(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t bytes) {
   MatchTileWith(job, tile, mem, bytes, nullptr);
 }
 
+// With the ranges from the prior alone (no range planes, no temporal prior), each coarse row's
+// ranges are made once across the level, where each tile would make its own segment of them: at
+// the widths of a tile the segment's fixed costs outweighed its work (realtime at 640 x 480: 8 %
+// of the frame in PriorRangeSegment). The values are the same, column by column.
 void MatchTileRow(const MatchJob& job, int tile_row, std::uint8_t* mem, std::size_t bytes, std::uint8_t* prior_rows) {
   const SearchRanges& ranges = *job.ranges;
   const int first = tile_row * job.tiles_x, last = first + job.tiles_x;

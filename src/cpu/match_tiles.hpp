@@ -96,7 +96,8 @@ inline std::uint8_t* aligned_slice(const MatchScratch& scratch, int slot) {
 }
 
 /// Entries of a row of search ranges across a level of width w, with the slack that
-/// PriorRangeSegment writes past its end and that the tiles' vector loads read (64-byte rows).
+/// PriorRangeSegment writes past its end (kRangeSegmentSlack, 64) and that the tiles' vector
+/// loads read; rows of whole 64-byte lines.
 inline std::size_t prior_row_entries(int width) { return (static_cast<std::size_t>(width) + 64 + 31) / 32 * 32; }
 /// Bytes of the ranges of one tile row's coarse rows (kRows / 2 of them, lo and hi) that
 /// match_tile_row() makes from the prior.
