@@ -6,7 +6,8 @@
 // clamped columns in the padding), so that the codes of candidates k = 0, 1, ... lie at the
 // increasing addresses t = W - 1 - x - i + lo + k and one unaligned load brings a vector of them.
 // Mirrored planes carry stride + 16 padding columns: a valid candidate reads t in [-h, W + h), and
-// the lanes past a pixel's count (masked to kSgmInf) at most a slot further.
+// the lanes past a pixel's count (masked to kSgmInf) at most a slot further, or, in a run of pixels
+// that share lo (RowCosts), a slot and kMaxRun - 1 entries further.
 //
 // The band of a pixel depends on its coarse pixel (x/2, y/2) and then on x through the clip to
 // the image: the prior's minima and maxima over the prior_size x prior_size neighbourhood are
@@ -100,11 +101,24 @@ void MirrorCodes(const CensusCodes& right, SgmVolume& v) {
   });
 }
 
+// Pixels of a row that share their band's lower end (the fine pixels of one coarse pixel, or of
+// a smooth prior: 7.1 on average in quality at 640 x 480) go together, at most this many. A run
+// reads the mirrored codes up to its widest count, at most kMaxRun - 1 entries past where a lone
+// pixel's reads end, which stays inside the planes' padding (mirror_pad(): the slot plus 16).
+constexpr int kMaxRun = 8;
+
 // Costs of the candidates k = 0 .. stride - 1 of every pixel of a row (those past count are
 // kSgmInf), the window's rows of codes given by pointers. One call per row, so that the window's
 // loops unroll (kWords, kA) and its row pointers stay in registers.
 // T: the volume's cost entries, u16 or (where every cost is below kSgmInf8) bytes; kSgmInf
 // saturates to either's largest value.
+//
+// The box sum is separable where pixels share lo: the cost of candidate lo + k of pixel x is the
+// sum over the window's columns c = x - h .. x + h of H(c, k), the Hamming distances of column c
+// summed over the window's rows, and H(c, k) depends on c and lo + k only. A run of r such pixels
+// makes r + a - 1 column vectors of H and adds a of them per pixel, where pixel by pixel it would
+// make a x r: with a 3x3 window, 2.3 times fewer popcounts at runs of 7 (the stage 30 % shorter in a
+// profile of quality at 640 x 480, 1 thread).
 template <int kWords, int kA, class T>
 void RowCosts(const std::uint32_t* const* left_rows, const std::uint32_t* const* mirror_rows, int w,
               const std::int16_t* lo_row, const std::int16_t* count_row, int stride, T* HWY_RESTRICT out) {
@@ -124,34 +138,51 @@ void RowCosts(const std::uint32_t* const* left_rows, const std::uint32_t* const*
   const auto inf = hn::Set(di32, kSgmInf);
   const auto inf_out = hn::Set(dout, kInf);
   const auto iota = hn::Iota(di32, 0);
-  for (int x = 0; x < w; ++x, out += stride) {
-    const int lo = lo_row[x], count = count_row[x];
-    if (count == 0) {
+  HWY_ALIGN std::uint32_t columns[(kMaxRun + kA - 1) * 16];  // H(c, k0 ..) of the run's columns
+  for (int x = 0; x < w;) {
+    const int lo = lo_row[x];
+    if (count_row[x] == 0) {
       for (int k = 0; k < stride; ++k) out[k] = kInf;  // lo may lie anywhere: read nothing
+      ++x;
+      out += stride;
       continue;
     }
-    // Mirrored column of candidate k0 of window column i: base - i + k0.
-    const int base = w - 1 - x + lo;
+    int end = x + 1, most = count_row[x];
+    for (; end < w && end - x < kMaxRun && lo_row[end] == lo && count_row[end] > 0; ++end)
+      most = std::max<int>(most, count_row[end]);
+    const int run = end - x;
     // Vectors wholly past the count hold only kSgmInf: at the finer levels most pixels use less
     // than half of a slot of 32 (14.5 candidates on average in quality at 640 x 480).
     int k0 = 0;
-    for (; k0 < count; k0 += n) {
-      auto acc = hn::Zero(du32);
-      for (int j = 0; j < kA; ++j) {
-        for (int i = -kH; i <= kH; ++i) {
+    for (; k0 < most; k0 += n) {
+      for (int c = 0; c < run + kA - 1; ++c) {
+        // Column x - h + c of the left view against mirrored column w - 1 - (x - h + c) + lo + k0.
+        const int col = x - kH + c;
+        auto acc = hn::Zero(du32);
+        for (int j = 0; j < kA; ++j) {
           for (int word = 0; word < kWords; ++word) {
-            const auto l = hn::Set(du32, left[j * kWords + word][x + i]);
-            const auto r = hn::LoadU(du32, mirror[j * kWords + word] + base - i + k0);
+            const auto l = hn::Set(du32, left[j * kWords + word][col]);
+            const auto r = hn::LoadU(du32, mirror[j * kWords + word] + (w - 1 - col + lo + k0));
             acc = hn::Add(acc, hn::PopulationCount(hn::Xor(l, r)));
           }
         }
+        hn::Store(acc, du32, columns + c * n);
       }
-      // Costs are at most 9 x 9 x 80, and below kSgmInf8 with byte entries: the saturating
-      // demotion is exact for them and takes kSgmInf to the entries' largest value.
-      const auto in_band = hn::Lt(hn::Add(iota, hn::Set(di32, k0)), hn::Set(di32, count));
-      hn::StoreU(hn::DemoteTo(dout, hn::IfThenElse(in_band, hn::BitCast(di32, acc), inf)), dout, out + k0);
+      const auto candidate = hn::Add(iota, hn::Set(di32, k0));
+      for (int p = 0; p < run; ++p) {
+        auto sum = hn::Load(du32, columns + p * n);
+        for (int i = 1; i < kA; ++i) sum = hn::Add(sum, hn::Load(du32, columns + (p + i) * n));
+        // Costs are at most 9 x 9 x 80, and below kSgmInf8 with byte entries: the saturating
+        // demotion is exact for them and takes kSgmInf to the entries' largest value.
+        const auto in_band = hn::Lt(candidate, hn::Set(di32, count_row[x + p]));
+        hn::StoreU(hn::DemoteTo(dout, hn::IfThenElse(in_band, hn::BitCast(di32, sum), inf)), dout,
+                   out + p * stride + k0);
+      }
     }
-    for (; k0 < stride; k0 += n) hn::StoreU(inf_out, dout, out + k0);
+    for (int p = 0; p < run; ++p)
+      for (int k = k0; k < stride; k += n) hn::StoreU(inf_out, dout, out + p * stride + k);
+    x = end;
+    out += run * stride;
   }
 }
 
