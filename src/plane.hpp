@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <memory>
 #include <new>
 
@@ -86,5 +87,20 @@ class Plane {
 };
 
 inline int clamp_index(int v, int n) { return v < 0 ? 0 : (v >= n ? n - 1 : v); }
+
+/// out[i] = row[clamp_index(start + i, w)] for i < count: the in-range part in one copy, the
+/// clamped ends filled with the edge values (an index clamped per entry made the border vectors
+/// of the SIMD filters cost several interior ones).
+template <typename T>
+void copy_clamped(const T* row, int w, int start, int count, T* out) {
+  int i = 0;
+  for (; i < count && start + i < 0; ++i) out[i] = row[0];
+  const int inside_end = std::min(count, w - start);
+  if (inside_end > i) {
+    std::memcpy(out + i, row + start + i, sizeof(T) * static_cast<std::size_t>(inside_end - i));
+    i = inside_end;
+  }
+  for (; i < count; ++i) out[i] = row[w - 1];
+}
 
 }  // namespace mctstereo::detail

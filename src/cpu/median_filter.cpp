@@ -147,8 +147,7 @@ HWY_INLINE void BorderWindow(const std::int16_t* const* rows, int w, int x0, int
     }
     return;
   }
-  for (int j = 0; j < K; ++j)
-    for (int i = 0; i < n + 2 * R; ++i) border[j][i] = rows[j][clamp_index(x0 - R + i, w)];
+  for (int j = 0; j < K; ++j) copy_clamped(rows[j], w, x0 - R, n + 2 * R, border[j]);
 }
 
 // One output row: the interior vectors read the rows in place, in a loop of their own; the

@@ -225,20 +225,6 @@ HWY_INLINE V16 MedianVector(const std::int16_t* const* map, const std::uint8_t* 
   return hn::IfThenElse(keeps, own, hn::ShiftLeft<4>(lo));
 }
 
-// out[i] = row[clamp(start + i)] for i < count: the in-range part in one copy (a border vector
-// copied element by element showed as an eighth of the stage in a profile at 640 px).
-template <typename T>
-void CopyClamped(const T* row, int w, int start, int count, T* out) {
-  int i = 0;
-  for (; i < count && start + i < 0; ++i) out[i] = row[0];
-  const int inside_end = std::min(count, w - start);
-  if (inside_end > i) {
-    std::memcpy(out + i, row + start + i, sizeof(T) * static_cast<std::size_t>(inside_end - i));
-    i = inside_end;
-  }
-  for (; i < count; ++i) out[i] = row[w - 1];
-}
-
 template <int kChannels, bool kByteTable>
 void MedianRows(const Plane<std::int16_t>& src, const ColourPlanes& colour, const WeightedMedianConfig& config,
                 const WeightTables& tables, Plane<std::int16_t>& dst) {
@@ -277,9 +263,9 @@ void MedianRows(const Plane<std::int16_t>& src, const ColourPlanes& colour, cons
           }
         } else {
           for (int j = 0; j < rows; ++j) {
-            CopyClamped(map_rows[j], w, x0 - reach, n + 2 * reach, border_map[j]);
+            copy_clamped(map_rows[j], w, x0 - reach, n + 2 * reach, border_map[j]);
             for (int c = 0; c < kChannels; ++c)
-              CopyClamped(colour_rows[c][j], w, x0 - reach, n + 2 * reach, border_colour[c][j]);
+              copy_clamped(colour_rows[c][j], w, x0 - reach, n + 2 * reach, border_colour[c][j]);
             map[j] = border_map[j] + reach;
             for (int c = 0; c < kChannels; ++c) col[c][j] = border_colour[c][j] + reach;
           }
