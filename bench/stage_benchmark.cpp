@@ -7,16 +7,24 @@
 // shape of a map after the fill and before it: whole disparities over ~40 px), the colour a
 // smooth random texture, at 450 x 375 (Middlebury 2003) and 640 x 480, 1 thread and all; then
 // whole frames with and without the stage.
+//
+// Band SGM's three stages (costs, paths, winners) at the finest level of `quality`: 640 x 480 with
+// 64 disparities, a prior from the 320 x 240 level below, radius 6, bands of up to 32 candidates,
+// CT 5x5 with 3x3 boxes (byte costs), 4 paths with the preset's penalties, uniqueness 10 %, both
+// views; 1 thread and all. The scene: a textured background at 12 px with a nearer square at 40 px
+// and a slanted strip, so that the bands widen at depth edges as on real maps.
 #include <benchmark/benchmark.h>
 #include <omp.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <random>
 #include <vector>
-#include <algorithm>
 
 #include "mctstereo/mctstereo.hpp"
+#include "level_plan.hpp"
 #include "stages.hpp"
 
 namespace {
@@ -148,6 +156,112 @@ BENCHMARK_CAPTURE(frame, quality_640x480, "quality", true, 640, 480)->Unit(bench
 BENCHMARK_CAPTURE(frame, quality_no_wm_640x480, "quality", false, 640, 480)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+// The finest SGM level of `quality` at w x h, ready for any of its stages: codes of both views, the
+// coarser level's map as the prior, the volume with its storage, and the stages' scratch.
+struct SgmLevel {
+  int w, h;
+  mctstereo::StereoParams params = mctstereo::preset("quality");
+  Plane<std::uint8_t> left, right;
+  detail::CensusCodes codes[2];
+  Plane<std::int16_t> prior, map[2];
+  Plane<std::uint8_t> margin;
+  detail::SgmVolume volume;
+  std::unique_ptr<std::uint8_t[], detail::FreeDeleter> cost;
+  std::unique_ptr<std::uint16_t[], detail::FreeDeleter> sum;
+  detail::SgmScratch scratch;
+
+  // The true disparity of (x, y).
+  static int disparity(int x, int y, int w, int h) {
+    if (x >= w / 4 && x < w / 2 && y >= h / 4 && y < 3 * h / 4) return 40;
+    if (x >= 5 * w / 8 && x < 7 * w / 8) return 12 + (y * 24) / h;
+    return 12;
+  }
+
+  SgmLevel(int width, int height, int threads) : w(width), h(height) {
+    std::mt19937 rng(11);
+    std::uniform_int_distribution<int> byte(0, 255), noise(-6, 6);
+    left.reset(w, h);
+    right.reset(w, h);
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) left.at(x, y) = static_cast<std::uint8_t>(byte(rng));
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        const int xl = std::min(x + disparity(std::min(x + 12, w - 1), y, w, h), w - 1);
+        right.at(x, y) = left.at(xl, y);
+      }
+    for (int v = 0; v < 2; ++v) {
+      codes[v].words = detail::census_words(params.census_window);
+      for (int k = 0; k < codes[v].words; ++k) codes[v].plane[k].reset(w, h, detail::kCodePad);
+      detail::cpu::census_transform(v == 0 ? left : right, {params.census, params.census_window, params.mct_kernel},
+                                    codes[v]);
+      map[v].reset(w, h);
+    }
+    // The coarser level's map: half the disparities in Q4, with sub-pixel noise.
+    const int cw = (w + 1) / 2, ch = (h + 1) / 2;
+    prior.reset(cw, ch);
+    for (int y = 0; y < ch; ++y)
+      for (int x = 0; x < cw; ++x)
+        prior.at(x, y) = static_cast<std::int16_t>(8 * disparity(2 * x, 2 * y, w, h) + noise(rng));
+    margin.reset(w, h);
+    const int band = detail::sgm_band_width(params, 0, 63, w, false);
+    const std::size_t entries = detail::SgmVolume::entries_for(w, h, band);
+    cost = detail::allocate_aligned<std::uint8_t>(entries);
+    sum = detail::allocate_aligned<std::uint16_t>(entries);
+    volume.reset(w, h, band, codes[0].words, nullptr, sum.get());
+    volume.use_byte_costs(cost.get());
+    scratch.threads = threads;
+    scratch.bytes_per_thread = (detail::cpu::sgm_scratch_bytes(w, h, volume.stride) + 63) / 64 * 64;
+    scratch.data = detail::allocate_aligned<std::uint8_t>(scratch.bytes_per_thread * threads);
+  }
+  void costs() {
+    const detail::SgmBandConfig band{0, 63, params.finest_radius(), params.prior_size, volume.band, {}};
+    detail::cpu::sgm_costs(codes[0], codes[1], &prior, band, params.shd_window, scratch, volume);
+  }
+  void aggregate() {
+    detail::cpu::sgm_aggregate(left, {params.sgm_paths(), params.sgm_p1, params.sgm_p2, params.sgm_p2_k}, scratch,
+                               volume);
+  }
+  void select() {
+    detail::cpu::sgm_select(volume, {params.subpixel, params.uniqueness_ratio}, scratch, map[0], &map[1], &margin);
+  }
+};
+
+enum SgmStage { kCosts, kPaths, kWinners };
+
+void sgm(benchmark::State& state, SgmStage stage, int w, int h, int threads) {
+  const int saved = omp_get_max_threads();
+  const int used = threads > 0 ? threads : saved;
+  omp_set_num_threads(used);
+  SgmLevel level(w, h, used);
+  level.costs();
+  if (stage == kWinners) level.aggregate();
+  for (auto _ : state) {
+    switch (stage) {
+      case kCosts: level.costs(); break;
+      case kPaths: level.aggregate(); break;
+      case kWinners: level.select(); break;
+    }
+    benchmark::DoNotOptimize(level.map[0].row(0));
+  }
+  omp_set_num_threads(saved);
+  long candidates = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) candidates += level.volume.count.at(x, y);
+  state.counters["Mpx/s"] = benchmark::Counter(static_cast<double>(w) * h, benchmark::Counter::kIsIterationInvariantRate);
+  state.counters["candidates/px"] = static_cast<double>(candidates) / (static_cast<double>(w) * h);
+  state.SetLabel(detail::cpu::simd_target_name());
+}
+
+#define SGM_BENCH(name, stage, w, h, threads) \
+  BENCHMARK_CAPTURE(sgm, name, stage, w, h, threads)->Unit(benchmark::kMillisecond)->UseRealTime()
+
+SGM_BENCH(costs_640x480_1t, kCosts, 640, 480, 1);
+SGM_BENCH(paths_640x480_1t, kPaths, 640, 480, 1);
+SGM_BENCH(winners_640x480_1t, kWinners, 640, 480, 1);
+SGM_BENCH(costs_640x480_all, kCosts, 640, 480, 0);
+SGM_BENCH(paths_640x480_all, kPaths, 640, 480, 0);
+SGM_BENCH(winners_640x480_all, kWinners, 640, 480, 0);
 
 }  // namespace
 
