@@ -19,7 +19,8 @@
 //     "opencl_device": "NAME (PLATFORM)" when the opencl backend ran, else absent,
 //     "sizes": ["WxH", ..], "presets": [..],
 //     "warmup_frames", "min_frames", "min_time_s": the flags, before the per-size scaling,
-//     "left_image", "right_image", "fit" ("stretch" or "tile": --fit) }
+//     "left_image", "right_image", "fit" ("stretch" or "tile": --fit), "memory_only" (--memory-only:
+//     no timing records) }
 //   "records": one per (method, size, disparities, threads, backend) timed: {
 //     "method" (a preset, "opencv-stereobm" or "opencv-stereosgbm"), "kind" ("mctstereo" or
 //     "opencv"), "width", "height", "num_disparities" (OpenCV: rounded up to a multiple of 16),
@@ -495,6 +496,7 @@ struct RunSetup {
   int warmup = 0, frames = 0, load = 0, first_opencv_threads = 0;
   double min_time_s = 0.0;
   bool tile = false;  // --fit tile: the pair repeated at its own size, not resized
+  bool memory_only = false;  // --memory-only: the memory table alone
 
   bool has(Backend b) const { return std::find(backends.begin(), backends.end(), b) != backends.end(); }
 };
@@ -921,6 +923,7 @@ Json settings_json(const RunSetup& setup) {
   j.set("min_time_s", setup.min_time_s);
   j.set("left_image", setup.left_path);
   j.set("fit", setup.tile ? "tile" : "stretch");
+  j.set("memory_only", setup.memory_only);
   j.set("right_image", setup.right_path);
   return j;
 }
@@ -1043,6 +1046,8 @@ BenchCommand::BenchCommand(CLI::App& parent)
                  "busy threads of another process during the timing (0 = none): timings on a loaded CPU")
       ->check(CLI::Range(0, 4096))
       ->capture_default_str();
+  app.add_flag("--memory-only", memory_only_,
+               "measure only the memory table (no timing): every size, range and preset in a fresh process");
   app.add_option("--memory-probe", memory_probe_)->group("");  // internal: see run_memory_probe
   app.add_option("--load-probe", load_probe_)->group("");      // internal: see run_load_probe
 }
@@ -1087,19 +1092,24 @@ void BenchCommand::run() const {
   setup.min_time_s = min_time_s_;
   setup.load = load_;
   setup.tile = fit_ == "tile";
+  setup.memory_only = memory_only_;
   print_header(setup);
 
-  Progress progress(progress_steps(setup));
+  const int presets = static_cast<int>(setup.presets.size());
+  Progress progress(setup.memory_only ? static_cast<int>(setup.sizes.size() * setup.disparity_counts.size()) * presets
+                                 : progress_steps(setup));
   SkipNotes skips(progress);
   Timing timing{setup, progress, skips, {}};
   cv::setNumThreads(setup.thread_settings.front() > 0 ? setup.thread_settings.front() : -1);
   setup.first_opencv_threads = cv::getNumThreads();
-  // The load runs while every method is timed (the peers as well), and stops before the memory probes.
-  std::optional<CpuLoad> load(std::in_place, load_);
-  time_groups(timing, left, right);
-  load.reset();
-  print_stage_tables(timing.measurements, progress);
-  print_work_table(setup, timing.measurements);
+  if (!setup.memory_only) {
+    // The load runs while every method is timed (the peers as well), and stops before the memory probes.
+    std::optional<CpuLoad> load(std::in_place, load_);
+    time_groups(timing, left, right);
+    load.reset();
+    print_stage_tables(timing.measurements, progress);
+    print_work_table(setup, timing.measurements);
+  }
 
   const std::vector<MemoryRecord> memory = probe_memory(setup, progress, skips);
   print_memory_table(setup, memory);

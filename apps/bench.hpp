@@ -39,6 +39,7 @@ class BenchCommand {
   int load_ = 0;
   std::string memory_probe_;
   int load_probe_ = 0;
+  bool memory_only_ = false;
 };
 
 }  // namespace mctstereo::app

@@ -237,6 +237,12 @@ void RunFlags::add_to(CLI::App& app) {
                  "else all cores), at most the hardware threads")
       ->check(CLI::Range(0, 4096))
       ->capture_default_str();
+  app.add_option("--sgm-volume-limit", sgm_volume_limit_mib,
+                 "MiB: band SGM (4 paths, cpu backend) holds a level's costs and path sums whole up to this size, "
+                 "and aggregates larger frames in segments of rows (the same maps, about a tenth of the memory, "
+                 "some more time); 0 = always in segments")
+      ->check(CLI::Range(0.0, 1048576.0))
+      ->capture_default_str();
 }
 
 Backend RunFlags::parsed_backend() const {
@@ -257,6 +263,7 @@ MatcherOptions RunFlags::matcher_options(bool compute_right, bool compute_confid
   options.compute_right = compute_right;
   options.compute_confidence = compute_confidence;
   options.device = device;
+  options.sgm_volume_limit = static_cast<std::size_t>(sgm_volume_limit_mib * 1048576.0);
   return options;
 }
 

@@ -455,16 +455,20 @@ PYBIND11_MODULE(_mctstereo, m) {
   // ---- Matcher.
   py::class_<PyMatcher>(m, "Matcher",
                         "Matcher(width, height, params=None, backend='cpu', threads=0, device='', compute_right=False, "
-                        "compute_confidence=False): "
+                        "compute_confidence=False, sgm_volume_limit=None): "
                         "allocates everything once for one image size; compute(left, right) per frame. params None is "
-                        "preset('balanced'), the program's default. backend: 'reference', 'cpu', 'opencl' or 'auto'.")
+                        "preset('balanced'), the program's default. backend: 'reference', 'cpu', 'opencl' or 'auto'. "
+                        "sgm_volume_limit: bytes of band SGM costs and sums a level holds whole (None: the library's "
+                        "default, 32 MiB); larger frames are aggregated in segments of rows, with the same maps.")
       .def(py::init([](int width, int height, std::optional<StereoParams> p, const std::string& backend, int threads,
-                       const std::string& device, bool compute_right, bool compute_confidence) {
+                       const std::string& device, bool compute_right, bool compute_confidence,
+                       std::optional<std::size_t> sgm_volume_limit) {
              MatcherOptions options;
              options.threads = threads;
              options.device = device;
              options.compute_right = compute_right;
              options.compute_confidence = compute_confidence;
+             if (sgm_volume_limit) options.sgm_volume_limit = *sgm_volume_limit;
              const Backend b = parse_backend(backend);
              const StereoParams used = p ? *p : preset("balanced");
              auto pm = std::make_unique<PyMatcher>();
@@ -476,7 +480,7 @@ PYBIND11_MODULE(_mctstereo, m) {
            }),
            py::arg("width"), py::arg("height"), py::arg("params") = py::none(), py::arg("backend") = "cpu",
            py::arg("threads") = 0, py::arg("device") = "", py::arg("compute_right") = false,
-           py::arg("compute_confidence") = false)
+           py::arg("compute_confidence") = false, py::arg("sgm_volume_limit") = py::none())
       .def(
           "compute",
           [](PyMatcher& self, const py::object& left_object, const py::object& right_object, const std::string& channels) {
@@ -586,12 +590,14 @@ PYBIND11_MODULE(_mctstereo, m) {
       "Every OpenCL device (dicts); empty without a driver or in a build without OpenCL");
   m.def(
       "estimate_memory",
-      [](const StereoParams& p, int width, int height, int threads) {
+      [](const StereoParams& p, int width, int height, int threads, std::optional<std::size_t> sgm_volume_limit) {
         MatcherOptions o;
         o.threads = threads;
+        if (sgm_volume_limit) o.sgm_volume_limit = *sgm_volume_limit;
         return estimate_memory(p, width, height, o);
       },
       py::arg("params"), py::arg("width"), py::arg("height"), py::arg("threads") = 0,
+      py::arg("sgm_volume_limit") = py::none(),
       "Bytes a cpu matcher of these parameters and size allocates");
   m.def("version", [] { return std::string(version()); }, "The version of the library");
 

@@ -12,6 +12,7 @@ Inputs (in --results, default docs/results):
   bench_backends.json       mctstereo bench with --backend reference,cpu
   bench_loaded.json         mctstereo bench with --load 2 and --threads 1,2
   bench_opencl.json         mctstereo bench with --backend cpu,opencl over the thesis sizes
+  bench_memory.json         mctstereo bench --memory-only over the thesis sizes and ranges
 and, optionally, the disparity previews of `eval --save` (in --previews, default
 build/results/previews) with the scenes' own images and ground truth (the paths in the eval JSON,
 relative to the repository root).
@@ -55,10 +56,11 @@ BENCH_BACKENDS = "bench_backends.json"
 BENCH_OPENCL = "bench_opencl.json"
 BENCH_LOADED = "bench_loaded.json"
 BENCH_SCALING = "bench_scaling.json"
+BENCH_MEMORY = "bench_memory.json"
 SEQUENCE_TEMPORAL = "sequence_temporal.json"
 # The step of scripts/measure_results.sh that writes each file, for the error message.
 INPUT_STEPS = {EVAL_2003: 1, EVAL_2005: 2, EVAL_RADIOMETRIC: 3, BENCH_HEADLINE: 4, BENCH_THESIS: 5, BENCH_BACKENDS: 6,
-               BENCH_OPENCL: 7, BENCH_LOADED: 8, BENCH_SCALING: 9, SEQUENCE_TEMPORAL: 10}
+               BENCH_OPENCL: 7, BENCH_LOADED: 8, BENCH_SCALING: 9, SEQUENCE_TEMPORAL: 10, BENCH_MEMORY: 11}
 
 THESIS_VARIANTS = [("mct-full", "MCT-full"), ("mr-mct-full", "MR-MCT-full"), ("mr-mct-5x5", "MR-MCT-5x5")]
 SCENE_ORDER = ["tsukuba", "venus", "teddy", "cones", "aloe", "art"]
@@ -302,6 +304,7 @@ class BenchRun:
         self.load_threads = s.whole("load_threads") if s.has("load_threads") else 0
         self.cpu_mhz = s.num("cpu_mhz") if s.has("cpu_mhz") else 0.0
         self.fit = s.text("fit") if s.has("fit") else "stretch"
+        self.memory_only = s.has("memory_only") and s["memory_only"].value is True
         self.simd_target = s.text("simd_target") if s.has("simd_target") else ""
         self.records = []
         for r in doc.array("records"):
@@ -359,6 +362,8 @@ class BenchRun:
                  "--backend " + ",".join(self.backends), "--presets " + ",".join(self.presets),
                  f"--frames {number(self.flags['min_frames'])}", f"--warmup {number(self.flags['warmup_frames'])}",
                  f"--min-time {number(self.flags['min_time_s'])}"]
+        if self.memory_only:
+            parts = parts[:8] + ["--memory-only"]
         if self.fit == "tile":
             parts.append("--fit tile")
         if self.load_threads > 0:
@@ -1590,9 +1595,12 @@ def memory_section(report, bench, file_name):
         "resident memory over what it held just before (" + "; ".join(how.get(m, m) for m in measures) +
         f"); the process itself, with OpenCV loaded, held {mib(min(baseline))} to {mib(max(baseline))} MiB before "
         "that, not counted here. estimate: the library's `estimate_memory` for the same parameters. The full cost "
-        "volume W x H x D x 2 bytes is what a matcher that stores every cost would need.")
-    report.add(f"Command: the resolution table's ([{file_name}]({{results}}/{file_name}): `memory.records`). "
-               + machine_line(bench.settings, bench.file, with_threads=False))
+        "volume W x H x D x 2 bytes is what a matcher that stores every cost would need. Band SGM levels whose "
+        "costs and sums would exceed `MatcherOptions::sgm_volume_limit` (32 MiB, the default) are aggregated in "
+        "segments of rows (docs/PIPELINE.md, \"Band SGM in segments of rows\").")
+    report.add("Command:")
+    report.add(code(bench.command(file_name)))
+    report.add(machine_line(bench.settings, bench.file, with_threads=False))
     keys = sorted({(r["width"], r["height"], r["num_disparities"]) for r in bench.memory},
                   key=lambda k: (k[0] * k[1], k[0], k[2]))
     rows = []
@@ -1682,12 +1690,13 @@ def build(results_dir, images_dir, output, previews_dir):
     loaded_threads = loaded.load_threads
     scaling = BenchRun(docs[BENCH_SCALING])
     sequence = docs[SEQUENCE_TEMPORAL]
+    memory = BenchRun(docs[BENCH_MEMORY])
 
     report = Report(results_dir, images_dir, output, previews_dir)
     runs = [(EVAL_2003, ev2003.settings), (EVAL_2005, ev2005.settings), (EVAL_RADIOMETRIC, radio.settings),
             (BENCH_HEADLINE, headline.settings), (BENCH_THESIS, thesis.settings), (BENCH_BACKENDS, backends.settings),
             (BENCH_OPENCL, opencl.settings), (BENCH_LOADED, loaded.settings), (BENCH_SCALING, scaling.settings),
-            (SEQUENCE_TEMPORAL, sequence_settings(sequence))]
+            (SEQUENCE_TEMPORAL, sequence_settings(sequence)), (BENCH_MEMORY, memory.settings)]
     header(report, runs)
     quality_2003(report, ev2003)
     quality_2005(report, ev2005)
@@ -1700,7 +1709,7 @@ def build(results_dir, images_dir, output, previews_dir):
     speed_opencl(report, opencl, BENCH_OPENCL)
     speed_loaded(report, loaded, BENCH_LOADED, loaded_threads)
     streams_temporal(report, sequence, SEQUENCE_TEMPORAL)
-    memory_section(report, thesis, BENCH_THESIS)
+    memory_section(report, memory, BENCH_MEMORY)
     previews_section(report, [(ev2003, "middlebury2003", "Middlebury 2003"),
                               (ev2005, "middlebury2005", "Middlebury 2005/2006")])
     losses_section(report)

@@ -86,6 +86,10 @@ run "$binary" bench --data data --sizes 640x480 --num-disparities 64 --threads 1
 run "$binary" bench --data data --sizes 640x480,3840x2160 --fit tile --num-disparities 64,256 --threads 1,2 \
   --presets realtime --json "$results/bench_scaling.json"
 
+# 11: memory: a fresh process per size, range and preset (no timing).
+run "$binary" bench --data data --memory-only --sizes thesis --num-disparities 64,128,256 --threads 2 \
+  --presets realtime,balanced,quality --json "$results/bench_memory.json"
+
 # 10: streams: the temporal prior on still and panning sequences made from the Middlebury scenes
 # (the bundled Tsukuba pair without ../shared/data).
 sequence_binary=$(dirname "$(dirname "$binary")")/bench/mctstereo_sequence_benchmark

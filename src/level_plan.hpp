@@ -6,10 +6,12 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <cstdint>
 #include <utility>
 #include <vector>
 
 #include "mctstereo/params.hpp"
+#include "cpu/sgm_segments.hpp"
 #include "stages.hpp"
 
 namespace mctstereo::detail {
@@ -41,10 +43,20 @@ struct LevelSpec {
   int sgm_stride = 0;     ///< band SGM: entries per pixel slot
   /// Band SGM: costs in bytes (sgm_byte_costs() of the level's box and the census).
   bool sgm_byte_costs = false;
+  /// Band SGM on the cpu backend: rows of a segment (cpu::sgm_segmented()); 0: the whole volume.
+  int sgm_segment_rows = 0;
   /// The temporal prior narrows this level's search (StereoParams::temporal; a level with a coarser
   /// prior whose radius exceeds the temporal radius): it keeps its maps of the previous frame.
   bool temporal = false;
   int range() const { return dmax - dmin + 1; }
+  /// Entries of the level's SGM volume: the whole level's or a segment's.
+  std::size_t sgm_storage_entries() const {
+    return SgmVolume::entries_for(width, sgm_segment_rows > 0 ? sgm_segment_rows : height, sgm_band);
+  }
+  /// Rows of the mirrored codes: a segment's and the box's margins, or the level's (0).
+  int sgm_mirror_rows() const {
+    return sgm_segment_rows > 0 ? std::min(height, sgm_segment_rows + 2 * (shd_window / 2)) : 0;
+  }
   /// The views whose maps of the previous frame the temporal prior reads: the left one under SGM
   /// (the band is the left view's), every matched view with box sums.
   int temporal_views() const { return !temporal ? 0 : is_sgm ? 1 : right_map ? 2 : 1; }
@@ -56,6 +68,7 @@ struct LevelPlan {
   int census_words = 1;
   std::size_t sgm_entries = 0;     ///< band SGM: cost (and sum) entries of the largest volume
   std::size_t sgm_cost_bytes = 0;  ///< band SGM: bytes of the largest volume's costs
+  std::size_t sgm_row_state_bytes = 0;  ///< band SGM in segments: the largest level's row states
   int sgm_max_stride = 16;      ///< band SGM: the widest slot
   int sgm_levels = 0;           ///< levels that aggregate by SGM (the coarsest ones)
   int box_range = 0;            ///< most disparities of a box level (0: none)
@@ -90,9 +103,61 @@ inline int sgm_band_width(const StereoParams& p, int dmin, int dmax, int width, 
   return coarsest ? range : std::min(range, p.sgm_max_band);
 }
 
+/// Bytes of the costs and sums of `rows` rows of a band SGM level.
+inline std::size_t sgm_volume_bytes(const LevelSpec& L, int rows) {
+  return SgmVolume::entries_for(L.width, rows, L.sgm_band) * (L.sgm_byte_costs ? 3 : 4);
+}
+
+/// Fewest rows of a segment. Every segment costs a few passes over short runs of rows: quality at
+/// 1280 x 720 with 256 disparities and 2 threads matched in 80-95 ms with segments of 32 rows and
+/// 90 ms with 22 (the fewest bytes), against 51-61 ms whole; 48 and 64 rows were no faster than 32
+/// within this machine's noise.
+inline constexpr int kMinSegmentRows = 32;
+
+/// Rows per segment of the largest SGM level: the fewest bytes of one segment's costs and sums
+/// and of the row states (a checkpoint of 2 bytes per entry of a row per segment), at least
+/// kMinSegmentRows.
+inline int sgm_segment_rows_for(const LevelSpec& L) {
+  const std::size_t per_row = sgm_volume_bytes(L, 1), state = SgmVolume::entries_for(L.width, 1, L.sgm_band) * 2;
+  int best = L.height;
+  std::size_t best_bytes = sgm_volume_bytes(L, L.height);
+  for (int rows = std::min(kMinSegmentRows, L.height); rows < L.height; ++rows) {
+    const std::size_t bytes = rows * per_row + static_cast<std::size_t>((L.height + rows - 1) / rows) * state;
+    if (bytes < best_bytes) best = rows, best_bytes = bytes;
+  }
+  return best;
+}
+
+/// Band SGM with 4 paths on the cpu backend, when the largest level's costs and sums exceed
+/// `limit` bytes: that level in segments of sgm_segment_rows_for() rows, and every other level
+/// whose volume does not fit the storage of one such segment in segments that do.
+inline void plan_sgm_segments(const StereoParams& p, std::size_t limit, LevelPlan& plan) {
+  if (plan.sgm_levels == 0 || p.sgm_paths() != 4) return;
+  const LevelSpec* largest = nullptr;
+  for (const LevelSpec& L : plan.levels)
+    if (L.is_sgm && (largest == nullptr || sgm_volume_bytes(L, L.height) > sgm_volume_bytes(*largest, largest->height)))
+      largest = &L;
+  if (sgm_volume_bytes(*largest, largest->height) <= limit) return;
+  const std::size_t storage = sgm_volume_bytes(*largest, sgm_segment_rows_for(*largest));
+  plan.sgm_entries = plan.sgm_cost_bytes = 0;
+  for (LevelSpec& L : plan.levels) {
+    if (!L.is_sgm) continue;
+    if (sgm_volume_bytes(L, L.height) > storage) {
+      L.sgm_segment_rows = std::clamp(static_cast<int>(storage / sgm_volume_bytes(L, 1)), 1, L.height);
+      plan.sgm_row_state_bytes = std::max(
+          plan.sgm_row_state_bytes, cpu::sgm_row_state_bytes(L.width, L.height, L.sgm_stride, L.sgm_segment_rows));
+    }
+    plan.sgm_entries = std::max(plan.sgm_entries, L.sgm_storage_entries());
+    plan.sgm_cost_bytes = std::max(plan.sgm_cost_bytes, L.sgm_storage_entries() * (L.sgm_byte_costs ? 1 : 2));
+  }
+}
+
 /// The plan of a width x height frame with valid parameters p; need_right: the right view is
-/// matched at the finest level (LR check or the right map asked for).
-inline LevelPlan plan_levels(const StereoParams& p, int width, int height, bool need_right) {
+/// matched at the finest level (LR check or the right map asked for); sgm_volume_limit: the cpu
+/// backend's MatcherOptions::sgm_volume_limit (the most bytes of a whole SGM volume; the other
+/// backends keep whole volumes).
+inline LevelPlan plan_levels(const StereoParams& p, int width, int height, bool need_right,
+                             std::size_t sgm_volume_limit = SIZE_MAX) {
   LevelPlan plan;
   plan.census_words = census_words(p.census_window);
   const int scale_steps = log2_exact(p.working_scale);
@@ -136,6 +201,7 @@ inline LevelPlan plan_levels(const StereoParams& p, int width, int height, bool 
     lw = (lw + 1) / 2;
     lh = (lh + 1) / 2;
   }
+  plan_sgm_segments(p, sgm_volume_limit, plan);
   return plan;
 }
 

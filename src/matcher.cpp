@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "cpu/parallel.hpp"
+#include "cpu/sgm_segments.hpp"
 #include "level_plan.hpp"
 #include "stages.hpp"
 #ifdef MCTSTEREO_HAVE_OPENCL
@@ -144,6 +145,7 @@ struct Matcher::Impl {
   // Band SGM: the cost and sum storage every level's volume uses and the scratch of its stages.
   std::unique_ptr<std::uint8_t[], detail::FreeDeleter> sgm_cost;
   std::unique_ptr<std::uint16_t[], detail::FreeDeleter> sgm_sum;
+  std::unique_ptr<std::uint16_t[], detail::FreeDeleter> sgm_row_states;  // band SGM in segments
   detail::SgmScratch sgm_scratch;
   // The winner margins of the level the confidence takes them from (the plan's margin_level: the
   // finest, or the finest SGM level under box levels), the finest level's confidence, and the
@@ -193,7 +195,8 @@ struct Matcher::Impl {
       return;
     }
 
-    const detail::LevelPlan plan = detail::plan_levels(p, w, h, need_right);
+    const detail::LevelPlan plan =
+        detail::plan_levels(p, w, h, need_right, backend == Backend::Cpu ? o.sgm_volume_limit : SIZE_MAX);
     // Working-scale reductions of the input: full_gray[v][0] is the input size.
     for (int v = 0; v < 2; ++v)
       for (const detail::Size2& s : plan.working) full_gray[v].emplace_back(s.width, s.height);
@@ -225,13 +228,15 @@ struct Matcher::Impl {
         L.previous[v].reset(lw, lh);
         L.previous_image[v].reset(lw, lh);
       }
-      if (L.is_sgm) L.sgm.reset(lw, lh, L.sgm_band, plan.census_words, nullptr, nullptr);
+      if (L.is_sgm) L.sgm.reset(lw, lh, L.sgm_band, plan.census_words, nullptr, nullptr, L.sgm_mirror_rows());
     }
     const int scale_steps = static_cast<int>(plan.working.size()) - 1;
     if (plan.sgm_levels > 0) {
       // One storage of costs for every level, bytes or 16-bit entries as each level's costs need.
       sgm_cost = detail::allocate_aligned<std::uint8_t>(plan.sgm_cost_bytes);
       sgm_sum = detail::allocate_aligned<std::uint16_t>(plan.sgm_entries);
+      if (plan.sgm_row_state_bytes > 0)
+        sgm_row_states = detail::allocate_aligned<std::uint16_t>(plan.sgm_row_state_bytes / sizeof(std::uint16_t));
       for (Level& L : levels) {
         if (!L.is_sgm) continue;
         if (L.sgm_byte_costs)
@@ -402,12 +407,20 @@ struct Matcher::Impl {
   void match_sgm(int l, const Plane<std::int16_t>* prior) {
     Level& L = levels[l];
     const detail::SgmBandConfig band{L.dmin, L.dmax, L.radius, params.prior_size, L.sgm.band, temporal_prior(l, 0)};
-    stages->sgm_costs(L.codes[0], L.codes[1], prior, band, L.shd_window, sgm_scratch, L.sgm);
     const detail::SgmPathConfig paths{params.sgm_paths(), params.sgm_p1, params.sgm_p2, params.sgm_p2_k};
-    stages->sgm_aggregate(level_image(l, 0), paths, sgm_scratch, L.sgm);
     const detail::SgmSelectConfig select{params.subpixel && l == 0, params.uniqueness_ratio};
-    stages->sgm_select(L.sgm, select, sgm_scratch, L.disparity[0], L.right_map ? &L.disparity[1] : nullptr,
-                       l == margin_level ? &margin : nullptr);
+    Plane<std::int16_t>* right = L.right_map ? &L.disparity[1] : nullptr;
+    Plane<std::uint8_t>* level_margin = l == margin_level ? &margin : nullptr;
+    if (L.sgm_segment_rows > 0) {
+      const detail::cpu::SgmSegmentJob job{&L.codes[0], &L.codes[1], prior, band, L.shd_window, &level_image(l, 0),
+                                           paths, select, L.sgm_segment_rows, sgm_row_states.get(),
+                                           &L.disparity[0], right, level_margin};
+      detail::cpu::sgm_segmented(job, sgm_scratch, L.sgm);
+      return;
+    }
+    stages->sgm_costs(L.codes[0], L.codes[1], prior, band, L.shd_window, sgm_scratch, L.sgm);
+    stages->sgm_aggregate(level_image(l, 0), paths, sgm_scratch, L.sgm);
+    stages->sgm_select(L.sgm, select, sgm_scratch, L.disparity[0], right, level_margin);
   }
 
   // The last frame's confidence at the working scale (lazy_confidence()), from the maps refine()
@@ -766,7 +779,7 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   const auto gray_bytes = [](int w, int h) { return Plane<std::uint8_t>::bytes_for(w, h); };
   const auto map_bytes = [](int w, int h) { return Plane<std::int16_t>::bytes_for(w, h); };
   const bool need_right = params.lr_check || options.compute_right;
-  const detail::LevelPlan plan = detail::plan_levels(params, width, height, need_right);
+  const detail::LevelPlan plan = detail::plan_levels(params, width, height, need_right, options.sgm_volume_limit);
   const int scale_steps = static_cast<int>(plan.working.size()) - 1;
   const int words = plan.census_words;
   std::size_t total = 0;
@@ -778,7 +791,7 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
       total += 2 * words * Plane<std::uint32_t>::bytes_for(L.width, L.height, detail::kCodePad);
     total += ((L.right_map ? 2 : 1) * (L.refine ? 2 : 1) + L.temporal_views()) * map_bytes(L.width, L.height) +
              L.temporal_views() * gray_bytes(L.width, L.height);
-    if (L.is_sgm) total += detail::SgmVolume::plane_bytes_for(L.width, L.height, L.sgm_band, words);
+    if (L.is_sgm) total += detail::SgmVolume::plane_bytes_for(L.width, L.height, L.sgm_band, words, L.sgm_mirror_rows());
   }
   const int w0 = plan.finest().width, h0 = plan.finest().height;
   const int threads = options.threads > 0 ? options.threads : default_threads();
@@ -792,7 +805,7 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   if (plan.sgm_levels > 0) {
     // The cost and sum storage every SGM level shares and the stages' scratch.
     const detail::LevelSpec& s = plan.finest_sgm();
-    total += plan.sgm_cost_bytes + plan.sgm_entries * sizeof(std::uint16_t);
+    total += plan.sgm_cost_bytes + plan.sgm_entries * sizeof(std::uint16_t) + plan.sgm_row_state_bytes;
     total += threads * ((detail::cpu::sgm_scratch_bytes(s.width, s.height, plan.sgm_max_stride) + 63) / 64 * 64);
   }
   // Margins (at the plan's margin level), confidence at the working scale and at the output size.

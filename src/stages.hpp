@@ -232,14 +232,21 @@ struct SgmVolume {
   /// W x H x stride entries each, in storage the caller owns: the levels run one after the other,
   /// so the driver gives all of them the same storage, sized for the largest. The costs are 16-bit
   /// (cost) or, after use_byte_costs(), bytes (cost8); exactly one of the two is set.
+  /// A level aggregated in segments of rows (cpu::sgm_segmented) holds only the rows
+  /// row0 .. row0 + segment rows - 1 in that storage: slot_of() counts from row0.
   std::uint16_t* cost = nullptr;
   std::uint8_t* cost8 = nullptr;
   std::uint16_t* sum = nullptr;
+  int row0 = 0;
   /// cpu backend: the right view's codes mirrored (x -> W - 1 - x), so that the codes of a pixel's
-  /// candidates lo, lo + 1, ... lie at increasing addresses.
+  /// candidates lo, lo + 1, ... lie at increasing addresses; rows mirror_row0 .. of the level
+  /// (all of them, or a segment's window).
   std::array<Plane<std::uint32_t>, 3> mirrored;
+  int mirror_row0 = 0;
 
-  void reset(int w, int h, int band_width, int words, std::uint16_t* cost_storage, std::uint16_t* sum_storage) {
+  /// mirror_rows: rows of the mirrored planes (0: the level's height).
+  void reset(int w, int h, int band_width, int words, std::uint16_t* cost_storage, std::uint16_t* sum_storage,
+             int mirror_rows = 0) {
     width = w;
     height = h;
     band = band_width;
@@ -249,9 +256,12 @@ struct SgmVolume {
     cost = cost_storage;
     cost8 = nullptr;
     sum = sum_storage;
+    row0 = mirror_row0 = 0;
     for (int k = 0; k < 3; ++k) mirrored[k] = {};
-    for (int k = 0; k < words; ++k) mirrored[k].reset(w, h, mirror_pad(stride));
+    for (int k = 0; k < words; ++k) mirrored[k].reset(w, mirror_rows > 0 ? mirror_rows : h, mirror_pad(stride));
   }
+  /// Row y of mirrored plane k.
+  const std::uint32_t* mirrored_row(int k, int y) const { return mirrored[k].row(y - mirror_row0); }
   static int stride_for(int band_width) { return (band_width + 15) / 16 * 16; }
   static int mirror_pad(int slot_stride) { return slot_stride + 16; }
   /// Entries of cost (and of sum) for a level.
@@ -259,9 +269,10 @@ struct SgmVolume {
     return static_cast<std::size_t>(w) * h * stride_for(band_width);
   }
   /// Bytes of a level's own planes (not the shared storage).
-  static std::size_t plane_bytes_for(int w, int h, int band_width, int words) {
+  static std::size_t plane_bytes_for(int w, int h, int band_width, int words, int mirror_rows = 0) {
     return 2 * Plane<std::int16_t>::bytes_for(w, h) +
-           words * Plane<std::uint32_t>::bytes_for(w, h, mirror_pad(stride_for(band_width)));
+           words * Plane<std::uint32_t>::bytes_for(w, mirror_rows > 0 ? mirror_rows : h,
+                                                   mirror_pad(stride_for(band_width)));
   }
   /// Byte costs in `storage` (W x H x stride bytes) instead of 16-bit ones: only where every cost
   /// of the level is below kSgmInf8 (sgm_byte_costs()).
@@ -269,7 +280,7 @@ struct SgmVolume {
     cost = nullptr;
     cost8 = storage;
   }
-  std::size_t slot_of(int x, int y) const { return (static_cast<std::size_t>(y) * width + x) * stride; }
+  std::size_t slot_of(int x, int y) const { return (static_cast<std::size_t>(y - row0) * width + x) * stride; }
   /// Entry k of pixel (x, y)'s costs, kSgmInf past its count, whatever their storage.
   int cost_value(int x, int y, int k) const {
     const std::size_t i = slot_of(x, y) + static_cast<std::size_t>(k);

@@ -500,6 +500,54 @@ TEST(Pipeline, LevelWorkCountsTheCandidatesOfEachLevel) {
   }
 }
 
+// Band SGM in segments of rows (MatcherOptions::sgm_volume_limit 0: every 4-path SGM level in
+// segments) makes the maps of the whole volume: both views, the confidence, several frames.
+TEST(Pipeline, SgmInSegmentsEqualsTheWholeVolume) {
+  const StereoPair pair = textured_pair(203, 97, 30, 8);
+  const StereoPair next = textured_pair(203, 97, 30, 9);
+  for (const std::string& name : {"balanced", "quality", "sgm-full"}) {
+    StereoParams p = preset(name);
+    p.num_disparities = 32;
+    MatcherOptions whole, segments;
+    whole.compute_right = segments.compute_right = true;
+    whole.threads = segments.threads = 2;
+    whole.sgm_volume_limit = SIZE_MAX;
+    segments.sgm_volume_limit = 0;
+    Matcher a(203, 97, p, Backend::Cpu, whole), b(203, 97, p, Backend::Cpu, segments);
+    for (const StereoPair* frame : {&pair, &next}) {
+      a.compute(frame->left_view(), frame->right_view());
+      b.compute(frame->left_view(), frame->right_view());
+      EXPECT_EQ(describe_difference(pixels(b.disparity_q4()), pixels(a.disparity_q4()), 203), "") << name;
+      EXPECT_EQ(describe_difference(pixels(b.right_disparity_q4()), pixels(a.right_disparity_q4()), 203), "") << name;
+      const MapView<const float> ca = a.confidence();
+      const MapView<const float> cb = b.confidence();
+      long differ = 0;
+      for (int y = 0; y < 97; ++y)
+        for (int x = 0; x < 203; ++x) differ += ca.at(x, y) != cb.at(x, y);
+      EXPECT_EQ(differ, 0) << name;
+    }
+    // The segmented matcher holds less: one segment's costs and sums instead of the level's.
+    EXPECT_LT(estimate_memory(p, 203, 97, segments), estimate_memory(p, 203, 97, whole)) << name;
+  }
+}
+
+// Band SGM's memory at 1280 x 720: quality, the largest, segments its finest level by default and
+// holds about as much as balanced.
+TEST(Pipeline, SgmMemoryAt720p) {
+  for (int d : {64, 256}) {
+    StereoParams q = preset("quality"), b = preset("balanced");
+    q.num_disparities = b.num_disparities = d;
+    MatcherOptions whole;
+    whole.sgm_volume_limit = SIZE_MAX;
+    const double mib = 1024.0 * 1024.0;
+    const double segmented = estimate_memory(q, 1280, 720) / mib, full = estimate_memory(q, 1280, 720, whole) / mib;
+    const double balanced = estimate_memory(b, 1280, 720) / mib;
+    std::printf("%d disparities: quality %.1f MiB (whole volume %.1f), balanced %.1f\n", d, segmented, full, balanced);
+    EXPECT_LT(segmented, 1.2 * balanced);
+    EXPECT_LT(segmented, 0.5 * full);
+  }
+}
+
 TEST(Pipeline, MemoryGrowsWithTheSearchWidthNotTheRange) {
   StereoParams p = preset("balanced");
   p.num_disparities = 64;

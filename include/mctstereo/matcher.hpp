@@ -43,6 +43,12 @@ struct MatcherOptions {
   /// of every pixel of the finest level (a few percent of a frame). Band SGM always produces it:
   /// its winner selection finds the second best anyway.
   bool compute_confidence = false;
+  /// Band SGM (4 paths) on the cpu backend: the most bytes of costs and path sums of a level held
+  /// whole. A frame whose largest SGM level needs more (quality from about 1024 x 768 on) is
+  /// aggregated in segments of rows, with the same maps: every cost is made twice and one
+  /// vertical path runs twice, and the memory for costs and sums falls to one segment's (quality
+  /// at 1280 x 720: 84 MiB whole, 2.6 MiB in segments). SIZE_MAX: always whole.
+  std::size_t sgm_volume_limit = std::size_t{32} << 20;
   /// The OpenCL device of the opencl and auto backends: "" prefers the first GPU, else the first
   /// device; a number is an index into opencl_devices(); other text picks the first device whose
   /// name or platform contains it (case-insensitive).

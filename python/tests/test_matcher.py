@@ -189,3 +189,19 @@ def test_temporal_prior_over_a_sequence(tsukuba):
     assert not seq.used_temporal_prior
     with pytest.raises(ValueError, match="temporal_radius"):
         mctstereo.Matcher(384, 288, mctstereo.preset("quality", temporal=True, temporal_radius=17))
+
+
+def test_sgm_in_segments_gives_the_same_maps_in_less_memory(tsukuba):
+    # sgm_volume_limit=0 aggregates every band SGM level in segments of rows: the maps of the whole
+    # volume, from less memory.
+    left, right = tsukuba
+    params = mctstereo.preset("quality", num_disparities=32)
+    whole = mctstereo.Matcher(384, 288, params, threads=2, compute_right=True, sgm_volume_limit=2**62)
+    segments = mctstereo.Matcher(384, 288, params, threads=2, compute_right=True, sgm_volume_limit=0)
+    whole.compute(left, right, channels="rgb")
+    segments.compute(left, right, channels="rgb")
+    np.testing.assert_array_equal(segments.disparity_q4(), whole.disparity_q4())
+    np.testing.assert_array_equal(segments.right_disparity_q4(), whole.right_disparity_q4())
+    np.testing.assert_array_equal(segments.confidence(), whole.confidence())
+    assert (mctstereo.estimate_memory(params, 384, 288, sgm_volume_limit=0) <
+            mctstereo.estimate_memory(params, 384, 288, sgm_volume_limit=2**62))

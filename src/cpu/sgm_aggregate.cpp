@@ -26,6 +26,7 @@
 #include <algorithm>
 
 #include "cpu/parallel.hpp"
+#include "cpu/sgm_segments.hpp"
 #include "stages.hpp"
 
 #ifndef MCTSTEREO_CPU_SGM_AGGREGATE_ONCE
@@ -145,10 +146,10 @@ HWY_INLINE hn::Vec<D> LoadCosts(D d, const RowView& r, std::size_t at) {
   }
 }
 
-// One step of a path: the values of pixel x of row r from its predecessor's, added into the
-// sums (written when kFirst). kVecs = stride / lanes when known at compile time (0: any); kBytes:
-// the volume's costs are bytes.
-template <class D, bool kFirst, int kVecs, bool kBytes>
+// One step of a path: the values of pixel x of row r from its predecessor's, into the sums as
+// kSums (SgmSumMode) says. kVecs = stride / lanes when known at compile time (0: any); kBytes: the volume's
+// costs are bytes.
+template <class D, int kSums, int kVecs, bool kBytes>
 HWY_INLINE void PathStep(const RowView& r, int x, const PathConstants& c, PathState& st) {
   const D d;
   const int n = static_cast<int>(hn::Lanes(d));
@@ -161,7 +162,8 @@ HWY_INLINE void PathStep(const RowView& r, int x, const PathConstants& c, PathSt
   // The values go to the buffer (for the next step) and into the sums in the same pass.
   const auto emit = [&](int k, decltype(vmin) value) {
     hn::Store(value, d, l + k);
-    hn::StoreU(kFirst ? value : hn::SaturatedAdd(hn::LoadU(d, sum + k), value), d, sum + k);
+    if constexpr (kSums == kWriteSums) hn::StoreU(value, d, sum + k);
+    if constexpr (kSums == kAddSums) hn::StoreU(hn::SaturatedAdd(hn::LoadU(d, sum + k), value), d, sum + k);
     vmin = hn::Min(vmin, value);
   };
   if (st.m_prev == kSgmInf) {
@@ -199,17 +201,17 @@ void PathLine(const Plane<std::uint8_t>& gray, const PathConstants& c, int x, in
               std::uint16_t* buffers, SgmVolume& v) {
   PathState st = fresh_state(buffers, path_buffer_entries(v.stride));
   for (; x >= 0 && x < v.width && y >= 0 && y < v.height; x += dx, y += dy)
-    PathStep<D, false, kVecs, kBytes>(row_view(gray, v, y), x, c, st);
+    PathStep<D, kAddSums, kVecs, kBytes>(row_view(gray, v, y), x, c, st);
 }
 
 // A horizontal path over a block of rows at once, column after column. A step depends on the one
 // before through m(q) (a reduction over the lanes), so one line alone is latency-bound;
 // interleaving independent lines fills that time.
-template <class D, bool kFirst, int kVecs, bool kBytes>
-void PathRows(const Plane<std::uint8_t>& gray, const PathConstants& c, int y0, int block, int dx,
+template <class D, int kSums, int kVecs, bool kBytes>
+void PathRows(const Plane<std::uint8_t>& gray, const PathConstants& c, int y0, int block, int last, int dx,
               std::uint16_t* buffers, SgmVolume& v) {
   const int entries = path_buffer_entries(v.stride);
-  const int rows = std::min(y0 + block, v.height) - y0;
+  const int rows = std::min(y0 + block, last) - y0;
   PathState st[kRowBlock];
   RowView view[kRowBlock];
   for (int j = 0; j < rows; ++j) {
@@ -218,7 +220,7 @@ void PathRows(const Plane<std::uint8_t>& gray, const PathConstants& c, int y0, i
   }
   for (int i = 0; i < v.width; ++i) {
     const int x = dx > 0 ? i : v.width - 1 - i;
-    for (int j = 0; j < rows; ++j) PathStep<D, kFirst, kVecs, kBytes>(view[j], x, c, st[j]);
+    for (int j = 0; j < rows; ++j) PathStep<D, kSums, kVecs, kBytes>(view[j], x, c, st[j]);
   }
 }
 
@@ -226,64 +228,91 @@ void PathRows(const Plane<std::uint8_t>& gray, const PathConstants& c, int y0, i
 // their own buffers, and the volume is read along rows (one column at a time would jump a whole
 // row of slots per step, a cache and TLB miss each: measured 8x slower at 640 x 480). Each row
 // of a block is a short run in a new page, where the hardware prefetchers do not follow: the
-// block's slots a few rows ahead are prefetched.
-template <class D, int kVecs, bool kBytes>
-void PathColumns(const Plane<std::uint8_t>& gray, const PathConstants& c, int x0, int block, int dy,
-                 std::uint16_t* buffers, SgmVolume& v) {
+// block's slots a few rows ahead are prefetched. Rows [first, last), from the columns' values in
+// `from` (or afresh), leaving them in `to` (when not null).
+template <class D, int kSums, int kVecs, bool kBytes>
+void PathColumns(const Plane<std::uint8_t>& gray, const PathConstants& c, int x0, int block, int dy, int first,
+                 int last, const SgmRowState* from, SgmRowState* to, std::uint16_t* buffers, SgmVolume& v) {
   const int entries = path_buffer_entries(v.stride);
   const int x1 = std::min(x0 + block, v.width);
   constexpr int kAhead = 4;
   PathState st[kColumnBlock];
-  for (int x = x0; x < x1; ++x) st[x - x0] = fresh_state(buffers + 2 * entries * (x - x0), entries);
+  for (int x = x0; x < x1; ++x) {
+    PathState& s = st[x - x0];
+    s = fresh_state(buffers + 2 * entries * (x - x0), entries);
+    if (from == nullptr || from->y < 0) continue;
+    std::copy_n(from->values + static_cast<std::size_t>(x) * v.stride, v.stride, s.prev + c.pad);
+    s.m_prev = from->m[x];
+    s.lo_prev = v.lo.at(x, from->y);
+    s.gray_prev = gray.at(x, from->y);
+  }
   const int sum_bytes = (x1 - x0) * v.stride * static_cast<int>(sizeof(std::uint16_t));
   const int cost_bytes = kBytes ? sum_bytes / 2 : sum_bytes;
-  for (int i = 0; i < v.height; ++i) {
-    const int y = dy > 0 ? i : v.height - 1 - i;
+  for (int i = 0; i < last - first; ++i) {
+    const int y = dy > 0 ? first + i : last - 1 - i;
     const int ahead = y + kAhead * dy;
-    if (ahead >= 0 && ahead < v.height) {
+    if (ahead >= first && ahead < last) {
       const char* cost =
           kBytes ? reinterpret_cast<const char*>(v.cost8_at(x0, ahead)) : reinterpret_cast<const char*>(v.cost_at(x0, ahead));
-      const char* sum = reinterpret_cast<const char*>(v.sum_at(x0, ahead));
       for (int b = 0; b < cost_bytes; b += 64) hwy::Prefetch(cost + b);
-      for (int b = 0; b < sum_bytes; b += 64) hwy::Prefetch(sum + b);
+      if constexpr (kSums != kNoSums) {
+        const char* sum = reinterpret_cast<const char*>(v.sum_at(x0, ahead));
+        for (int b = 0; b < sum_bytes; b += 64) hwy::Prefetch(sum + b);
+      }
     }
     const RowView view = row_view(gray, v, y);
-    for (int x = x0; x < x1; ++x) PathStep<D, false, kVecs, kBytes>(view, x, c, st[x - x0]);
+    for (int x = x0; x < x1; ++x) PathStep<D, kSums, kVecs, kBytes>(view, x, c, st[x - x0]);
   }
+  if (to == nullptr) return;
+  for (int x = x0; x < x1; ++x) {
+    std::copy_n(st[x - x0].prev + c.pad, v.stride, to->values + static_cast<std::size_t>(x) * v.stride);
+    to->m[x] = static_cast<std::uint16_t>(st[x - x0].m_prev);
+  }
+}
+
+// The thread's slice of the scratch: its path buffers.
+inline std::uint16_t* thread_buffers(SgmScratch& scratch) {
+  if (t_pool && t_pool->size() > scratch.threads) std::abort();  // a scratch slice per thread
+  return reinterpret_cast<std::uint16_t*>(scratch.data.get() + thread_slot() * scratch.bytes_per_thread);
+}
+
+// Both horizontal paths of the blocks of rows in [first, last), the first of them writing the
+// sums when kFirstPath.
+template <class D, bool kFirstPath, int kVecs, bool kBytes>
+void HorizontalPaths(const Plane<std::uint8_t>& gray, const PathConstants& c, SgmScratch& scratch, int first, int last,
+                     SgmVolume& v) {
+  const int row_block = block_lines(kRowBlock, last - first, scratch.threads);
+  parallel_for(
+      (last - first + row_block - 1) / row_block, 1,
+      [&](int b0, int b1) {
+        for (int b = b0; b < b1; ++b) {
+          const int y0 = first + b * row_block;
+          PathRows<D, kFirstPath ? kWriteSums : kAddSums, kVecs, kBytes>(gray, c, y0, row_block, last, +1,
+                                                                         thread_buffers(scratch), v);
+          PathRows<D, kAddSums, kVecs, kBytes>(gray, c, y0, row_block, last, -1, thread_buffers(scratch), v);
+        }
+      },
+      scratch.threads);
 }
 
 template <class D, int kVecs, bool kBytes>
 void AggregateAll(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, const PathConstants& c,
                   SgmScratch& scratch, SgmVolume& v) {
-  const int row_block = block_lines(kRowBlock, v.height, scratch.threads);
   const int column_block = block_lines(kColumnBlock, v.width, scratch.threads);
-  const int row_blocks = (v.height + row_block - 1) / row_block;
   const int column_blocks = (v.width + column_block - 1) / column_block;
-  if (t_pool && t_pool->size() > scratch.threads) std::abort();  // a scratch slice per thread
-  const auto buffers = [&] {
-    return reinterpret_cast<std::uint16_t*>(scratch.data.get() + thread_slot() * scratch.bytes_per_thread);
-  };
   // Both horizontal paths of a block of rows, then both vertical ones of a block of columns:
   // the second path of each pair finds the block's costs and sums still in the L2 cache (a
   // block of 8 lines of 640 pixels x 32 candidates is 640 KiB of both), so each pair streams
   // the volume from memory once instead of twice. Each pass ends before the next starts: the
   // passes add into the same sums.
-  parallel_for(
-      row_blocks, 1,
-      [&](int b0, int b1) {
-        for (int b = b0; b < b1; ++b) {
-          PathRows<D, true, kVecs, kBytes>(gray, c, b * row_block, row_block, +1, buffers(), v);
-          PathRows<D, false, kVecs, kBytes>(gray, c, b * row_block, row_block, -1, buffers(), v);
-        }
-      },
-      scratch.threads);
+  HorizontalPaths<D, true, kVecs, kBytes>(gray, c, scratch, 0, v.height, v);
   parallel_for(
       column_blocks, 1,
       [&](int b0, int b1) {
-        for (int b = b0; b < b1; ++b) {
-          PathColumns<D, kVecs, kBytes>(gray, c, b * column_block, column_block, +1, buffers(), v);
-          PathColumns<D, kVecs, kBytes>(gray, c, b * column_block, column_block, -1, buffers(), v);
-        }
+        for (int b = b0; b < b1; ++b)
+          for (int dy : {+1, -1})
+            PathColumns<D, kAddSums, kVecs, kBytes>(gray, c, b * column_block, column_block, dy, 0, v.height, nullptr,
+                                                    nullptr, thread_buffers(scratch), v);
       },
       scratch.threads);
   // The diagonals (8 paths), line by line.
@@ -295,40 +324,91 @@ void AggregateAll(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, 
           for (int i = i0; i < i1; ++i) {
             int x, y;
             lines.start(i, x, y);
-            PathLine<D, kVecs, kBytes>(gray, c, x, y, lines.dx, lines.dy, buffers(), v);
+            PathLine<D, kVecs, kBytes>(gray, c, x, y, lines.dx, lines.dy, thread_buffers(scratch), v);
           }
         },
         scratch.threads);
   }
 }
 
-// Slots of one vector (16 candidates; 32 on AVX-512 and wide SVE) and of two 16-lane vectors
-// (32 candidates on AVX2) unroll.
-template <bool kBytes>
-void AggregateWith(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, const PathConstants& c,
-                   SgmScratch& scratch, SgmVolume& v) {
+// One vertical path over rows [first, last) of every column (sgm_vertical_rows()).
+template <class D, int kVecs, bool kBytes>
+void VerticalRows(const Plane<std::uint8_t>& gray, const PathConstants& c, SgmScratch& scratch, int first, int last,
+                  int dy, int sums, const SgmRowState& from, SgmRowState* to, SgmVolume& v) {
+  const int column_block = block_lines(kColumnBlock, v.width, scratch.threads);
+  parallel_for(
+      (v.width + column_block - 1) / column_block, 1,
+      [&](int b0, int b1) {
+        for (int b = b0; b < b1; ++b) {
+          const int x0 = b * column_block;
+          std::uint16_t* buffers = thread_buffers(scratch);
+          if (sums == kWriteSums)
+            PathColumns<D, kWriteSums, kVecs, kBytes>(gray, c, x0, column_block, dy, first, last, &from, to, buffers, v);
+          else if (sums == kAddSums)
+            PathColumns<D, kAddSums, kVecs, kBytes>(gray, c, x0, column_block, dy, first, last, &from, to, buffers, v);
+          else
+            PathColumns<D, kNoSums, kVecs, kBytes>(gray, c, x0, column_block, dy, first, last, &from, to, buffers, v);
+        }
+      },
+      scratch.threads);
+  if (to != nullptr) to->y = dy > 0 ? last - 1 : first;
+}
+
+// Calls f.template operator()<D, kVecs, kBytes>() with the slot types of the volume: slots of one
+// vector (16 candidates; 32 on AVX-512 and wide SVE) and of two 16-lane vectors (32 candidates on
+// AVX2) unroll.
+template <bool kBytes, class F>
+void WithSlotTypes(const SgmVolume& v, F&& f) {
   if (WideSlots(v.stride)) {
     if (v.stride == static_cast<int>(hn::Lanes(WideTagU16())))
-      AggregateAll<WideTagU16, 1, kBytes>(gray, config, c, scratch, v);
+      f.template operator()<WideTagU16, 1, kBytes>();
     else
-      AggregateAll<WideTagU16, 0, kBytes>(gray, config, c, scratch, v);
+      f.template operator()<WideTagU16, 0, kBytes>();
     return;
   }
   const int vecs = v.stride / static_cast<int>(hn::Lanes(DU16()));
-  if (vecs == 1) AggregateAll<DU16, 1, kBytes>(gray, config, c, scratch, v);
-  else if (vecs == 2) AggregateAll<DU16, 2, kBytes>(gray, config, c, scratch, v);
-  else AggregateAll<DU16, 0, kBytes>(gray, config, c, scratch, v);
+  if (vecs == 1) f.template operator()<DU16, 1, kBytes>();
+  else if (vecs == 2) f.template operator()<DU16, 2, kBytes>();
+  else f.template operator()<DU16, 0, kBytes>();
+}
+
+template <class F>
+void WithVolumeTypes(const SgmVolume& v, F&& f) {
+  if (v.cost8)
+    WithSlotTypes<true>(v, f);
+  else
+    WithSlotTypes<false>(v, f);
+}
+
+// The constants of every step; p2_of_diff: 256 entries to fill, P2' of every gray difference (one
+// look-up per step instead of a division).
+PathConstants path_constants(const SgmPathConfig& config, const SgmVolume& v, int* p2_of_diff) {
+  for (int diff = 0; diff < 256; ++diff) p2_of_diff[diff] = sgm_p2_at(config, diff, 0);
+  return PathConstants{v.stride, path_buffer_pad(v.stride), static_cast<std::uint16_t>(config.p1), p2_of_diff};
 }
 
 void SgmAggregate(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, SgmScratch& scratch, SgmVolume& v) {
-  // P2' of every gray difference: one look-up per step instead of a division.
   int p2_of_diff[256];
-  for (int diff = 0; diff < 256; ++diff) p2_of_diff[diff] = sgm_p2_at(config, diff, 0);
-  const PathConstants c{v.stride, path_buffer_pad(v.stride), static_cast<std::uint16_t>(config.p1), p2_of_diff};
-  if (v.cost8)
-    AggregateWith<true>(gray, config, c, scratch, v);
-  else
-    AggregateWith<false>(gray, config, c, scratch, v);
+  const PathConstants c = path_constants(config, v, p2_of_diff);
+  WithVolumeTypes(v, [&]<class D, int kVecs, bool kBytes>() { AggregateAll<D, kVecs, kBytes>(gray, config, c, scratch, v); });
+}
+
+void SgmVerticalRows(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, SgmScratch& scratch, SgmVolume& v,
+                     int first, int last, int dy, int sums, const SgmRowState& from, SgmRowState* to) {
+  int p2_of_diff[256];
+  const PathConstants c = path_constants(config, v, p2_of_diff);
+  WithVolumeTypes(v, [&]<class D, int kVecs, bool kBytes>() {
+    VerticalRows<D, kVecs, kBytes>(gray, c, scratch, first, last, dy, sums, from, to, v);
+  });
+}
+
+void SgmHorizontalRows(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, SgmScratch& scratch,
+                       SgmVolume& v, int first, int last) {
+  int p2_of_diff[256];
+  const PathConstants c = path_constants(config, v, p2_of_diff);
+  WithVolumeTypes(v, [&]<class D, int kVecs, bool kBytes>() {
+    HorizontalPaths<D, false, kVecs, kBytes>(gray, c, scratch, first, last, v);
+  });
 }
 
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE
@@ -337,6 +417,17 @@ HWY_AFTER_NAMESPACE();
 #if HWY_ONCE
 namespace mctstereo::detail::cpu {
 HWY_EXPORT(SgmAggregate);
+HWY_EXPORT(SgmVerticalRows);
+HWY_EXPORT(SgmHorizontalRows);
+void sgm_vertical_rows(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, SgmScratch& scratch,
+                       SgmVolume& volume, int first, int last, int dy, SgmSumMode sums, const SgmRowState& from,
+                       SgmRowState* to) {
+  HWY_DYNAMIC_DISPATCH(SgmVerticalRows)(gray, config, scratch, volume, first, last, dy, sums, from, to);
+}
+void sgm_horizontal_rows(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, SgmScratch& scratch,
+                         SgmVolume& volume, int first, int last) {
+  HWY_DYNAMIC_DISPATCH(SgmHorizontalRows)(gray, config, scratch, volume, first, last);
+}
 void sgm_aggregate(const Plane<std::uint8_t>& gray, const SgmPathConfig& config, SgmScratch& scratch,
                    SgmVolume& volume) {
   HWY_DYNAMIC_DISPATCH(SgmAggregate)(gray, config, scratch, volume);

@@ -28,6 +28,7 @@
 
 #include "cpu/parallel.hpp"
 #include "cpu/search_range-inl.h"
+#include "cpu/sgm_segments.hpp"
 #include "stages.hpp"
 
 #ifndef MCTSTEREO_CPU_SGM_COSTS_ONCE
@@ -87,13 +88,15 @@ namespace hn = hwy::HWY_NAMESPACE;
 using DU32 = hn::CappedTag<std::uint32_t, 16>;
 using DI32 = hn::RebindToSigned<DU32>;
 
-void MirrorCodes(const CensusCodes& right, SgmVolume& v) {
-  const int w = v.width, h = v.height;
-  parallel_lines(h, [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) {
+// Mirrors rows [r0, r1) of the right view's codes into the mirrored planes (from their row
+// v.mirror_row0).
+void MirrorCodes(const CensusCodes& right, int r0, int r1, SgmVolume& v) {
+  const int w = v.width;
+  parallel_lines(r1 - r0, [&](int i0, int i1) {
+    for (int y = r0 + i0; y < r0 + i1; ++y) {
       for (int k = 0; k < right.words; ++k) {
         const std::uint32_t* src = right.plane[k].row(y);
-        std::uint32_t* dst = v.mirrored[k].row(y);
+        std::uint32_t* dst = v.mirrored[k].row(y - v.mirror_row0);
         const int pad = v.mirrored[k].pad();
         for (int t = -pad; t < w + pad; ++t) dst[t] = src[clamp_index(w - 1 - t, w)];
       }
@@ -264,18 +267,26 @@ void RowBands(const SgmBandConfig& config, int w, int y, int cw, const CoarseRow
   }
 }
 
-void SgmCosts(const CensusCodes& left, const CensusCodes& right, const Plane<std::int16_t>* coarse,
-              const SgmBandConfig& config, int shd_window, SgmScratch& scratch, SgmVolume& v) {
+// Bands and costs of rows [first, last), after mirroring the rows of the right view's codes their
+// windows read (all of them into planes of the level's height, else a window of rows from
+// mirror_row0 into planes of a segment's).
+void SgmCostsRows(const CensusCodes& left, const CensusCodes& right, const Plane<std::int16_t>* coarse,
+                  const SgmBandConfig& config, int shd_window, SgmScratch& scratch, SgmVolume& v, int first,
+                  int last) {
   const int w = v.width, h = v.height, words = left.words, hr = shd_window / 2;
-  MirrorCodes(right, v);
+  const int r0 = std::max(first - hr, 0), r1 = std::min(last + hr, h);
+  v.mirror_row0 = v.mirrored[0].height() >= h ? 0 : r0;
+  if (r1 - v.mirror_row0 > v.mirrored[0].height()) std::abort();  // planes too short for the window
+  MirrorCodes(right, r0, r1, v);
   // The row's costs into the volume's entries, bytes or u16.
   const RowCostsFn<std::uint8_t> byte_costs = v.cost8 ? RowCostsOf<std::uint8_t>(words, shd_window) : nullptr;
   const RowCostsFn<std::uint16_t> wide_costs = v.cost8 ? nullptr : RowCostsOf<std::uint16_t>(words, shd_window);
   const int cw = coarse ? coarse->width() : 1;
   if (t_pool && t_pool->size() > scratch.threads) std::abort();  // a scratch slice per thread
   parallel_for(
-      h, 4,
-      [&](int y0, int y1) {
+      last - first, 4,
+      [&](int i0, int i1) {
+        const int y0 = first + i0, y1 = first + i1;
         // Seven int rows of the coarse width per thread (sgm_scratch_bytes holds seven of the level's
         // width), then the temporal prior's rows.
         int* lo_c = reinterpret_cast<int*>(scratch.data.get() + thread_slot() * scratch.bytes_per_thread);
@@ -308,7 +319,7 @@ void SgmCosts(const CensusCodes& left, const CensusCodes& right, const Plane<std
             const int yy = clamp_index(y - hr + j, h);
             for (int k = 0; k < words; ++k) {
               left_rows[j * 3 + k] = left.plane[k].row(yy);
-              mirror_rows[j * 3 + k] = v.mirrored[k].row(yy);
+              mirror_rows[j * 3 + k] = v.mirrored_row(k, yy);
             }
           }
           if (byte_costs)
@@ -320,11 +331,22 @@ void SgmCosts(const CensusCodes& left, const CensusCodes& right, const Plane<std
       scratch.threads);
 }
 
+void SgmCosts(const CensusCodes& left, const CensusCodes& right, const Plane<std::int16_t>* coarse,
+              const SgmBandConfig& config, int shd_window, SgmScratch& scratch, SgmVolume& v) {
+  SgmCostsRows(left, right, coarse, config, shd_window, scratch, v, 0, v.height);
+}
+
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE
 HWY_AFTER_NAMESPACE();
 
 #if HWY_ONCE
 namespace mctstereo::detail::cpu {
+HWY_EXPORT(SgmCostsRows);
+void sgm_costs_rows(const CensusCodes& left, const CensusCodes& right, const Plane<std::int16_t>* coarse,
+                    const SgmBandConfig& config, int shd_window, SgmScratch& scratch, SgmVolume& volume, int first,
+                    int last) {
+  HWY_DYNAMIC_DISPATCH(SgmCostsRows)(left, right, coarse, config, shd_window, scratch, volume, first, last);
+}
 HWY_EXPORT(SgmCosts);
 void sgm_costs(const CensusCodes& left, const CensusCodes& right, const Plane<std::int16_t>* coarse,
                const SgmBandConfig& config, int shd_window, SgmScratch& scratch, SgmVolume& volume) {

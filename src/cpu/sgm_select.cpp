@@ -16,6 +16,7 @@
 #include <climits>
 
 #include "cpu/parallel.hpp"
+#include "cpu/sgm_segments.hpp"
 #include "stages.hpp"
 
 
@@ -166,13 +167,14 @@ void SelectLeftRow(const SgmVolume& v, const SgmSelectConfig& config, int y, std
                            m ? m + x : nullptr);
 }
 
-void SgmSelect(const SgmVolume& v, const SgmSelectConfig& config, SgmScratch& scratch, Plane<std::int16_t>& left,
-               Plane<std::int16_t>* right, Plane<std::uint8_t>* margin) {
+void SgmSelectRows(const SgmVolume& v, const SgmSelectConfig& config, SgmScratch& scratch, Plane<std::int16_t>& left,
+                   Plane<std::int16_t>* right, Plane<std::uint8_t>* margin, int first, int last) {
   if (t_pool && t_pool->size() > scratch.threads) std::abort();  // a scratch slice per thread
   const auto select_left = WideSlots(v.stride) ? &SelectLeftRow<WideTagU16> : &SelectLeftRow<DU16>;
   parallel_for(
-      v.height, 4,
-      [&](int y0, int y1) {
+      last - first, 4,
+      [&](int i0, int i1) {
+        const int y0 = first + i0, y1 = first + i1;
         auto* rows =
             reinterpret_cast<std::uint16_t*>(scratch.data.get() + thread_slot() * scratch.bytes_per_thread);
         for (int y = y0; y < y1; ++y) {
@@ -183,12 +185,23 @@ void SgmSelect(const SgmVolume& v, const SgmSelectConfig& config, SgmScratch& sc
       scratch.threads);
 }
 
+void SgmSelect(const SgmVolume& v, const SgmSelectConfig& config, SgmScratch& scratch, Plane<std::int16_t>& left,
+               Plane<std::int16_t>* right, Plane<std::uint8_t>* margin) {
+  SgmSelectRows(v, config, scratch, left, right, margin, 0, v.height);
+}
+
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE
 HWY_AFTER_NAMESPACE();
 
 #if HWY_ONCE
 namespace mctstereo::detail::cpu {
 HWY_EXPORT(SgmSelect);
+HWY_EXPORT(SgmSelectRows);
+void sgm_select_rows(const SgmVolume& volume, const SgmSelectConfig& config, SgmScratch& scratch,
+                     Plane<std::int16_t>& left, Plane<std::int16_t>* right, Plane<std::uint8_t>* margin, int first,
+                     int last) {
+  HWY_DYNAMIC_DISPATCH(SgmSelectRows)(volume, config, scratch, left, right, margin, first, last);
+}
 void sgm_select(const SgmVolume& volume, const SgmSelectConfig& config, SgmScratch& scratch,
                 Plane<std::int16_t>& left, Plane<std::int16_t>* right, Plane<std::uint8_t>* margin) {
   HWY_DYNAMIC_DISPATCH(SgmSelect)(volume, config, scratch, left, right, margin);

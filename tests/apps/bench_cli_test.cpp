@@ -327,6 +327,25 @@ TEST_F(BenchCli, MatcherMemoryGrowsWithTheSearchWidthNotTheRange) {
   EXPECT_NE(r.output.find("1280x720     256  balanced"), std::string::npos) << r.output;
 }
 
+TEST_F(BenchCli, MemoryOnlyMeasuresTheMemoryTableAlone) {
+  // quality at 1280x720 with 256 disparities: its band SGM in segments of rows by default, within
+  // 1.5 x of balanced's memory (the whole volume would take 84 MiB more).
+  const Result r = bench("--memory-only --sizes 1280x720 --num-disparities 256 --threads 2 --presets balanced,quality "
+                         "--json b.json");
+  ASSERT_EQ(r.status, 0) << r.output << stderr_text();
+  const JsonValue report = read_json(folder_ / "b.json");
+  EXPECT_TRUE(report["settings"]["memory_only"].boolean);
+  EXPECT_TRUE(report["records"].items.empty());
+  const auto& records = report["memory"]["records"].items;
+  ASSERT_EQ(records.size(), 2u);
+  EXPECT_EQ(records[0]["method"].text, "balanced");
+  EXPECT_EQ(records[1]["method"].text, "quality");
+  const double balanced = records[0]["peak_resident_bytes"].number, quality = records[1]["peak_resident_bytes"].number;
+  EXPECT_GT(quality, 0.5 * balanced);
+  EXPECT_LT(quality, 1.5 * balanced) << "balanced " << balanced << " bytes, quality " << quality << " bytes";
+  EXPECT_EQ(r.output.find("x BM"), std::string::npos) << r.output;  // no timing table
+}
+
 TEST_F(BenchCli, ThesisSizesAreOneName) {
   const Result help = bench("--help");
   ASSERT_EQ(help.status, 0) << help.output;

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <random>
 
+#include "cpu/sgm_segments.hpp"
 #include "level_plan.hpp"
 #include "test_util.hpp"
 
@@ -447,6 +448,106 @@ TEST(SgmStages, TemporalBandsCpuEqualReference) {
     }
   }
   EXPECT_GT(narrowed, 1000);
+}
+
+// cpu::sgm_segmented() with segments of `rows` rows: storage for one segment's costs and sums,
+// mirrored planes of a segment's rows and the box's margins.
+SgmResult run_segmented(const SgmCase& c, const ShiftedPair& pair, const Plane<std::int16_t>* prior, int threads,
+                        int rows, bool byte_costs) {
+  const int words = detail::census_words(c.census);
+  const detail::CensusCodes left = reference_census(pair.left, c.census, CensusKind::Census);
+  const detail::CensusCodes right = reference_census(pair.right, c.census, CensusKind::Census);
+  const std::size_t n = SgmVolume::entries_for(c.w, rows, c.max_band);
+  auto cost = detail::allocate_aligned<std::uint16_t>(n);
+  auto sum = detail::allocate_aligned<std::uint16_t>(n);
+  auto cost8 = detail::allocate_aligned<std::uint8_t>(n);
+  SgmVolume v;
+  v.reset(c.w, c.h, c.max_band, words, cost.get(), sum.get(), std::min(c.h, rows + 2 * (c.shd / 2)));
+  if (byte_costs) v.use_byte_costs(cost8.get());
+  auto states = detail::allocate_aligned<std::uint16_t>(detail::cpu::sgm_row_state_bytes(c.w, c.h, v.stride, rows) / 2);
+  auto scratch = make_scratch(detail::cpu::sgm_scratch_bytes(c.w, c.h, v.stride), threads);
+  SgmResult r{Plane<std::int16_t>(c.w, c.h), Plane<std::int16_t>(c.w, c.h), Plane<std::int16_t>(c.w, c.h),
+              Plane<std::int16_t>(c.w, c.h), Plane<std::uint8_t>(c.w, c.h), Plane<std::uint8_t>(c.w, c.h), {}, {}};
+  const detail::cpu::SgmSegmentJob job{&left, &right, prior, SgmBandConfig{c.dmin, c.dmax, c.radius, c.prior_size, c.max_band},
+                                       c.shd, &pair.left, SgmPathConfig{c.paths, 20, 150, c.p2k},
+                                       SgmSelectConfig{c.subpixel, c.uniqueness}, rows, states.get(), &r.left, &r.right,
+                                       &r.margin};
+  detail::cpu::sgm_segmented(job, scratch, v);
+  detail::cpu::confidence(r.margin, 0, r.left, &r.right, 1, r.confidence);
+  for (int y = 0; y < c.h; ++y)
+    for (int x = 0; x < c.w; ++x) {
+      r.lo.at(x, y) = v.lo.at(x, y);
+      r.count.at(x, y) = v.count.at(x, y);
+    }
+  return r;
+}
+
+// The maps of the whole volume: band, winners of both views, margins, confidence.
+void expect_equal_maps(const SgmResult& ref, const SgmResult& got, const std::string& what) {
+  EXPECT_EQ(first_difference(ref.lo, got.lo), "") << what << ": band start";
+  EXPECT_EQ(first_difference(ref.count, got.count), "") << what << ": band count";
+  EXPECT_EQ(first_difference(ref.left, got.left), "") << what << ": left map";
+  EXPECT_EQ(first_difference(ref.right, got.right), "") << what << ": right map";
+  EXPECT_EQ(first_difference(ref.margin, got.margin), "") << what << ": margin";
+  EXPECT_EQ(first_difference(ref.confidence, got.confidence), "") << what << ": confidence";
+}
+
+TEST(SgmSegments, CpuEqualsReferenceOverTheWholeVolume) {
+  // Segments of 1, 2 and 3 rows, rows that do not divide the height, one segment of the whole
+  // level: the maps of the reference's whole volume, on every target, 1 and 2 threads.
+  std::uint32_t seed = 70;
+  int cases = 0;
+  for (const SgmCase& c : sgm_cases()) {
+    if (c.paths != 4) continue;
+    ++cases;
+    const ShiftedPair pair = (seed % 2) ? edge_pair(c.w, c.h, seed, std::max(c.dmin, 0) + 2, std::min(c.dmax, c.w - 1))
+                                        : shifted_pair(c.w, c.h, seed, std::clamp(c.dmin + 3, c.dmin, c.dmax));
+    const Plane<std::int16_t> prior = make_prior(c.w, c.h, c.dmin, c.dmax, seed + 3);
+    ++seed;
+    const Plane<std::int16_t>* p = c.with_prior ? &prior : nullptr;
+    const SgmResult ref = run_stages(c, pair, p, 1, ReferenceStages{});
+    const bool bytes = detail::sgm_byte_costs(c.shd, c.census);
+    const int saved = omp_get_max_threads();
+    for_each_simd_target([&](const std::string& target) {
+      for (int threads : {1, 2}) {
+        omp_set_num_threads(threads);
+        for (int rows : {1, 2, 3, 7, c.h}) {
+          if (rows > c.h) continue;
+          expect_equal_maps(ref, run_segmented(c, pair, p, threads, rows, bytes),
+                            describe(c) + " in segments of " + std::to_string(rows) + " rows on " + target + ", " +
+                                std::to_string(threads) + " thread(s)");
+        }
+      }
+    });
+    omp_set_num_threads(saved);
+  }
+  EXPECT_GE(cases, 8);
+}
+
+TEST(SgmSegments, PlanSegmentsLargeVolumesOnly) {
+  StereoParams q = preset("quality");
+  q.num_disparities = 256;
+  const std::size_t limit = std::size_t{32} << 20;
+  // 640 x 480 fits (28 MiB of costs and sums at the finest level): whole volumes.
+  for (const detail::LevelSpec& L : detail::plan_levels(q, 640, 480, true, limit).levels)
+    EXPECT_EQ(L.sgm_segment_rows, 0);
+  // 1280 x 720: the finest level (84 MiB whole) in segments, and every level whose volume does
+  // not fit one of its segments' storage; the storage is that of the largest segment.
+  const detail::LevelPlan plan = detail::plan_levels(q, 1280, 720, true, limit);
+  const detail::LevelPlan whole = detail::plan_levels(q, 1280, 720, true);
+  EXPECT_GE(plan.finest().sgm_segment_rows, detail::kMinSegmentRows);
+  EXPECT_LT(plan.finest().sgm_segment_rows, 64);
+  for (std::size_t l = 0; l < plan.levels.size(); ++l) {
+    const detail::LevelSpec& L = plan.levels[l];
+    EXPECT_EQ(whole.levels[l].sgm_segment_rows, 0);
+    EXPECT_LE(L.sgm_storage_entries(), plan.sgm_entries);
+    if (L.sgm_segment_rows == 0) EXPECT_LE(SgmVolume::entries_for(L.width, L.height, L.sgm_band), plan.sgm_entries);
+  }
+  EXPECT_LT(plan.sgm_entries * 3 + plan.sgm_row_state_bytes, whole.sgm_entries * 3 / 10);
+  // 8 paths keep the whole volume.
+  q.aggregation = Aggregation::Sgm8;
+  for (const detail::LevelSpec& L : detail::plan_levels(q, 1280, 720, true, limit).levels)
+    EXPECT_EQ(L.sgm_segment_rows, 0);
 }
 
 TEST(SgmStages, PathsRecoverASteppedScene) {
