@@ -183,7 +183,8 @@ std::vector<OpenclDevice> opencl_devices();
 
 /// Bytes the matcher of the cpu backend allocates for (params, width, height): grows with W x H x
 /// (search width at the finest level), not with W x H x D. Band SGM adds W x H x (its band, rounded
-/// up to 16) x 4 bytes at the finest level (the whole range with one level, as sgm-full).
+/// up to 16) x 3 bytes (4 with 16-bit costs) at the finest level (the whole range with one level, as
+/// sgm-full), or, above options.sgm_volume_limit, a segment of rows of that and its checkpoints.
 std::size_t estimate_memory(const StereoParams& params, int width, int height,
                             const MatcherOptions& options = {});
 
