@@ -189,6 +189,21 @@ ShiftedPair edge_pair(int w, int h, std::uint32_t seed, int d0, int d1) {
   return p;
 }
 
+// Planes for every map of a w x h level.
+SgmResult empty_result(int w, int h) {
+  return SgmResult{Plane<std::int16_t>(w, h), Plane<std::int16_t>(w, h), Plane<std::int16_t>(w, h),
+                   Plane<std::int16_t>(w, h), Plane<std::uint8_t>(w, h), Plane<std::uint8_t>(w, h), {}, {}};
+}
+
+// The volume's band starts and counts into the result.
+void copy_bands(const SgmVolume& v, SgmResult& r) {
+  for (int y = 0; y < v.height; ++y)
+    for (int x = 0; x < v.width; ++x) {
+      r.lo.at(x, y) = v.lo.at(x, y);
+      r.count.at(x, y) = v.count.at(x, y);
+    }
+}
+
 // byte_costs: the volume's costs in bytes (the case's costs must lie below kSgmInf8); the result
 // holds them as 16-bit values either way.
 template <typename Stages>
@@ -203,15 +218,10 @@ SgmResult run_stages(const SgmCase& c, const ShiftedPair& pair, const Plane<std:
   auto scratch = make_scratch(stages.scratch_bytes(c.w, c.h, v.stride), threads);
   stages.costs(left, right, prior, band, c.shd, scratch, v);
   stages.aggregate(pair.left, SgmPathConfig{c.paths, 20, 150, c.p2k}, scratch, v);
-  SgmResult r{Plane<std::int16_t>(c.w, c.h), Plane<std::int16_t>(c.w, c.h), Plane<std::int16_t>(c.w, c.h),
-              Plane<std::int16_t>(c.w, c.h), Plane<std::uint8_t>(c.w, c.h), Plane<std::uint8_t>(c.w, c.h), {}, {}};
+  SgmResult r = empty_result(c.w, c.h);
   stages.select(v, SgmSelectConfig{c.subpixel, c.uniqueness}, scratch, r.left, &r.right, &r.margin);
   stages.confidence(r.margin, 0, r.left, &r.right, 1, r.confidence);
-  for (int y = 0; y < c.h; ++y)
-    for (int x = 0; x < c.w; ++x) {
-      r.lo.at(x, y) = v.lo.at(x, y);
-      r.count.at(x, y) = v.count.at(x, y);
-    }
+  copy_bands(v, r);
   const std::size_t n = SgmVolume::entries_for(c.w, c.h, c.max_band);
   r.cost.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
@@ -245,15 +255,20 @@ long first_index(const std::vector<T>& a, const std::vector<T>& b) {
   return -1;
 }
 
-void expect_equal(const SgmResult& ref, const SgmResult& got, const std::string& what) {
+// The maps of the whole volume: band, winners of both views, margins, confidence.
+void expect_equal_maps(const SgmResult& ref, const SgmResult& got, const std::string& what) {
   EXPECT_EQ(first_difference(ref.lo, got.lo), "") << what << ": band start";
   EXPECT_EQ(first_difference(ref.count, got.count), "") << what << ": band count";
-  EXPECT_EQ(first_index(ref.cost, got.cost), -1) << what << ": costs";
-  EXPECT_EQ(first_index(ref.sum, got.sum), -1) << what << ": sums";
   EXPECT_EQ(first_difference(ref.left, got.left), "") << what << ": left map";
   EXPECT_EQ(first_difference(ref.right, got.right), "") << what << ": right map";
   EXPECT_EQ(first_difference(ref.margin, got.margin), "") << what << ": margin";
   EXPECT_EQ(first_difference(ref.confidence, got.confidence), "") << what << ": confidence";
+}
+
+void expect_equal(const SgmResult& ref, const SgmResult& got, const std::string& what) {
+  expect_equal_maps(ref, got, what);
+  EXPECT_EQ(first_index(ref.cost, got.cost), -1) << what << ": costs";
+  EXPECT_EQ(first_index(ref.sum, got.sum), -1) << what << ": sums";
 }
 
 std::vector<SgmCase> sgm_cases() {
@@ -337,11 +352,16 @@ TEST(SgmConfidence, MarginOfACoarserLevel) {
   }
 }
 
+// A pair for a case: a depth edge for odd seeds, a plain shift for even ones.
+ShiftedPair case_pair(const SgmCase& c, std::uint32_t seed) {
+  return (seed % 2) ? edge_pair(c.w, c.h, seed, std::max(c.dmin, 0) + 2, std::min(c.dmax, c.w - 1))
+                    : shifted_pair(c.w, c.h, seed, std::clamp(c.dmin + 3, c.dmin, c.dmax));
+}
+
 TEST(SgmStages, CpuEqualsReference) {
   std::uint32_t seed = 11;
   for (const SgmCase& c : sgm_cases()) {
-    const ShiftedPair pair = (seed % 2) ? edge_pair(c.w, c.h, seed, std::max(c.dmin, 0) + 2, std::min(c.dmax, c.w - 1))
-                                        : shifted_pair(c.w, c.h, seed, std::clamp(c.dmin + 3, c.dmin, c.dmax));
+    const ShiftedPair pair = case_pair(c, seed);
     const Plane<std::int16_t> prior = make_prior(c.w, c.h, c.dmin, c.dmax, seed + 3);
     ++seed;
     const Plane<std::int16_t>* p = c.with_prior ? &prior : nullptr;
@@ -466,30 +486,15 @@ SgmResult run_segmented(const SgmCase& c, const ShiftedPair& pair, const Plane<s
   if (byte_costs) v.use_byte_costs(cost8.get());
   auto states = detail::allocate_aligned<std::uint16_t>(detail::cpu::sgm_row_state_bytes(c.w, c.h, v.stride, rows) / 2);
   auto scratch = make_scratch(detail::cpu::sgm_scratch_bytes(c.w, c.h, v.stride), threads);
-  SgmResult r{Plane<std::int16_t>(c.w, c.h), Plane<std::int16_t>(c.w, c.h), Plane<std::int16_t>(c.w, c.h),
-              Plane<std::int16_t>(c.w, c.h), Plane<std::uint8_t>(c.w, c.h), Plane<std::uint8_t>(c.w, c.h), {}, {}};
+  SgmResult r = empty_result(c.w, c.h);
   const detail::cpu::SgmSegmentJob job{&left, &right, prior, SgmBandConfig{c.dmin, c.dmax, c.radius, c.prior_size, c.max_band},
                                        c.shd, &pair.left, SgmPathConfig{c.paths, 20, 150, c.p2k},
                                        SgmSelectConfig{c.subpixel, c.uniqueness}, rows, states.get(), &r.left, &r.right,
                                        &r.margin};
   detail::cpu::sgm_segmented(job, scratch, v);
   detail::cpu::confidence(r.margin, 0, r.left, &r.right, 1, r.confidence);
-  for (int y = 0; y < c.h; ++y)
-    for (int x = 0; x < c.w; ++x) {
-      r.lo.at(x, y) = v.lo.at(x, y);
-      r.count.at(x, y) = v.count.at(x, y);
-    }
+  copy_bands(v, r);
   return r;
-}
-
-// The maps of the whole volume: band, winners of both views, margins, confidence.
-void expect_equal_maps(const SgmResult& ref, const SgmResult& got, const std::string& what) {
-  EXPECT_EQ(first_difference(ref.lo, got.lo), "") << what << ": band start";
-  EXPECT_EQ(first_difference(ref.count, got.count), "") << what << ": band count";
-  EXPECT_EQ(first_difference(ref.left, got.left), "") << what << ": left map";
-  EXPECT_EQ(first_difference(ref.right, got.right), "") << what << ": right map";
-  EXPECT_EQ(first_difference(ref.margin, got.margin), "") << what << ": margin";
-  EXPECT_EQ(first_difference(ref.confidence, got.confidence), "") << what << ": confidence";
 }
 
 TEST(SgmSegments, CpuEqualsReferenceOverTheWholeVolume) {
@@ -500,8 +505,7 @@ TEST(SgmSegments, CpuEqualsReferenceOverTheWholeVolume) {
   for (const SgmCase& c : sgm_cases()) {
     if (c.paths != 4) continue;
     ++cases;
-    const ShiftedPair pair = (seed % 2) ? edge_pair(c.w, c.h, seed, std::max(c.dmin, 0) + 2, std::min(c.dmax, c.w - 1))
-                                        : shifted_pair(c.w, c.h, seed, std::clamp(c.dmin + 3, c.dmin, c.dmax));
+    const ShiftedPair pair = case_pair(c, seed);
     const Plane<std::int16_t> prior = make_prior(c.w, c.h, c.dmin, c.dmax, seed + 3);
     ++seed;
     const Plane<std::int16_t>* p = c.with_prior ? &prior : nullptr;
