@@ -23,6 +23,7 @@
 #include <random>
 #include <vector>
 
+#include "cpu/sgm_segments.hpp"
 #include "mctstereo/mctstereo.hpp"
 #include "level_plan.hpp"
 #include "stages.hpp"
@@ -225,9 +226,23 @@ struct SgmLevel {
   void select() {
     detail::cpu::sgm_select(volume, {params.subpixel, params.uniqueness_ratio}, scratch, map[0], &map[1], &margin);
   }
+  // The costs, paths and winners of the level in two sweeps (2 threads), as the driver runs them
+  // on volumes of at most cpu::kSweepVolumeLimit.
+  void two_sweeps() {
+    if (!states) states = detail::allocate_aligned<std::uint16_t>(detail::cpu::sgm_sweep_state_bytes(w, volume.stride) / 2);
+    const detail::cpu::SgmSegmentJob job{&codes[0], &codes[1], &prior,
+                                         {0, 63, params.finest_radius(), params.prior_size, volume.band, {}},
+                                         params.shd_window, &left,
+                                         {params.sgm_paths(), params.sgm_p1, params.sgm_p2, params.sgm_p2_k},
+                                         {params.subpixel, params.uniqueness_ratio}, detail::cpu::kSweepRows,
+                                         states.get(), &map[0], &map[1], &margin};
+    detail::cpu::sgm_two_sweeps(job, scratch, volume);
+  }
+  std::unique_ptr<std::uint16_t[], detail::FreeDeleter> states;
 };
 
-enum SgmStage { kCosts, kPaths, kWinners };
+// kStages: costs, paths and winners one stage after the other; kTwoSweeps: the same in two sweeps.
+enum SgmStage { kCosts, kPaths, kWinners, kStages, kTwoSweeps };
 
 void sgm(benchmark::State& state, SgmStage stage, int w, int h, int threads) {
   const int saved = omp_get_max_threads();
@@ -241,6 +256,12 @@ void sgm(benchmark::State& state, SgmStage stage, int w, int h, int threads) {
       case kCosts: level.costs(); break;
       case kPaths: level.aggregate(); break;
       case kWinners: level.select(); break;
+      case kStages:
+        level.costs();
+        level.aggregate();
+        level.select();
+        break;
+      case kTwoSweeps: level.two_sweeps(); break;
     }
     benchmark::DoNotOptimize(level.map[0].row(0));
   }
@@ -262,6 +283,10 @@ SGM_BENCH(winners_640x480_1t, kWinners, 640, 480, 1);
 SGM_BENCH(costs_640x480_all, kCosts, 640, 480, 0);
 SGM_BENCH(paths_640x480_all, kPaths, 640, 480, 0);
 SGM_BENCH(winners_640x480_all, kWinners, 640, 480, 0);
+SGM_BENCH(stages_320x240_2t, kStages, 320, 240, 2);
+SGM_BENCH(sweeps_320x240_2t, kTwoSweeps, 320, 240, 2);
+SGM_BENCH(stages_640x480_2t, kStages, 640, 480, 2);
+SGM_BENCH(sweeps_640x480_2t, kTwoSweeps, 640, 480, 2);
 
 }  // namespace
 

@@ -111,7 +111,8 @@ inline std::size_t sgm_volume_bytes(const LevelSpec& L, int rows) {
 /// Fewest rows of a segment. Every segment costs a few passes over short runs of rows: quality at
 /// 1280 x 720 with 256 disparities and 2 threads matched in 80-95 ms with segments of 32 rows and
 /// 90 ms with 22 (the fewest bytes), against 51-61 ms whole; 48 and 64 rows were no faster than 32
-/// within this machine's noise.
+/// within this machine's noise (measured before a segment's second pass ran in two sweeps on
+/// 2 threads).
 inline constexpr int kMinSegmentRows = 32;
 
 /// Rows per segment of the largest SGM level: the fewest bytes of one segment's costs and sums

@@ -78,6 +78,15 @@ bool whole_code_planes(const detail::LevelSpec& level, Backend backend) {
   return level.is_sgm || backend == Backend::Reference;
 }
 
+// Row states of band SGM on the cpu backend with `threads` threads: the checkpoints of levels in
+// segments, or the two sweeps' states of whole volumes on 2 threads, whichever takes more.
+std::size_t sgm_row_state_bytes(const detail::LevelPlan& plan, const StereoParams& p, int threads) {
+  std::size_t bytes = plan.sgm_row_state_bytes;
+  if (plan.sgm_levels > 0 && detail::cpu::sgm_two_sweeps_for(p.sgm_paths(), threads))
+    bytes = std::max(bytes, detail::cpu::sgm_sweep_state_bytes(plan.finest_sgm().width, plan.sgm_max_stride));
+  return bytes;
+}
+
 // Everything one pyramid level holds for both views; its plan (sizes, range, windows, band)
 // comes from plan_levels().
 struct Level : detail::LevelSpec {
@@ -145,7 +154,7 @@ struct Matcher::Impl {
   // Band SGM: the cost and sum storage every level's volume uses and the scratch of its stages.
   std::unique_ptr<std::uint8_t[], detail::FreeDeleter> sgm_cost;
   std::unique_ptr<std::uint16_t[], detail::FreeDeleter> sgm_sum;
-  std::unique_ptr<std::uint16_t[], detail::FreeDeleter> sgm_row_states;  // band SGM in segments
+  std::unique_ptr<std::uint16_t[], detail::FreeDeleter> sgm_row_states;  // in segments or two sweeps
   detail::SgmScratch sgm_scratch;
   // The winner margins of the level the confidence takes them from (the plan's margin_level: the
   // finest, or the finest SGM level under box levels), the finest level's confidence, and the
@@ -235,8 +244,8 @@ struct Matcher::Impl {
       // One storage of costs for every level, bytes or 16-bit entries as each level's costs need.
       sgm_cost = detail::allocate_aligned<std::uint8_t>(plan.sgm_cost_bytes);
       sgm_sum = detail::allocate_aligned<std::uint16_t>(plan.sgm_entries);
-      if (plan.sgm_row_state_bytes > 0)
-        sgm_row_states = detail::allocate_aligned<std::uint16_t>(plan.sgm_row_state_bytes / sizeof(std::uint16_t));
+      if (const std::size_t bytes = sgm_row_state_bytes(plan, params, host_threads()); bytes > 0)
+        sgm_row_states = detail::allocate_aligned<std::uint16_t>(bytes / sizeof(std::uint16_t));
       for (Level& L : levels) {
         if (!L.is_sgm) continue;
         if (L.sgm_byte_costs)
@@ -416,6 +425,14 @@ struct Matcher::Impl {
                                            paths, select, L.sgm_segment_rows, sgm_row_states.get(),
                                            &L.disparity[0], right, level_margin};
       detail::cpu::sgm_segmented(job, sgm_scratch, L.sgm);
+      return;
+    }
+    if (detail::cpu::sgm_two_sweeps_for(paths.paths, host_threads()) &&
+        detail::sgm_volume_bytes(L, L.height) <= detail::cpu::kSweepVolumeLimit) {
+      const detail::cpu::SgmSegmentJob job{&L.codes[0], &L.codes[1], prior, band, L.shd_window, &level_image(l, 0),
+                                           paths, select, detail::cpu::kSweepRows, sgm_row_states.get(),
+                                           &L.disparity[0], right, level_margin};
+      detail::cpu::sgm_two_sweeps(job, sgm_scratch, L.sgm);
       return;
     }
     stages->sgm_costs(L.codes[0], L.codes[1], prior, band, L.shd_window, sgm_scratch, L.sgm);
@@ -805,7 +822,7 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   if (plan.sgm_levels > 0) {
     // The cost and sum storage every SGM level shares and the stages' scratch.
     const detail::LevelSpec& s = plan.finest_sgm();
-    total += plan.sgm_cost_bytes + plan.sgm_entries * sizeof(std::uint16_t) + plan.sgm_row_state_bytes;
+    total += plan.sgm_cost_bytes + plan.sgm_entries * sizeof(std::uint16_t) + sgm_row_state_bytes(plan, params, threads);
     total += threads * ((detail::cpu::sgm_scratch_bytes(s.width, s.height, plan.sgm_max_stride) + 63) / 64 * 64);
   }
   // Margins (at the plan's margin level), confidence at the working scale and at the output size.

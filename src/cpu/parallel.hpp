@@ -38,9 +38,35 @@ class PoolScope {
   WorkerPool* previous_;
 };
 
+/// Set while the calling thread runs one task of a recipe that hands whole tasks to the threads
+/// itself (SerialScope): the stages it calls run serially on it.
+inline thread_local bool t_serial = false;
+
+/// Makes the stages that the calling thread calls while it lives run serially on it, for a recipe
+/// that shares its work among the threads in tasks of several stages each (cpu::sgm_two_sweeps):
+/// a stage's own chunks would hand the other threads work while they run tasks of their own.
+/// thread_slot() stays the thread's own, so each stage uses the thread's slice of its scratch.
+class SerialScope {
+ public:
+  SerialScope() : pool_(t_pool), serial_(t_serial) {
+    t_pool = nullptr;
+    t_serial = true;
+  }
+  ~SerialScope() {
+    t_pool = pool_;
+    t_serial = serial_;
+  }
+  SerialScope(const SerialScope&) = delete;
+  SerialScope& operator=(const SerialScope&) = delete;
+
+ private:
+  WorkerPool* pool_;
+  bool serial_;
+};
+
 /// Threads that may run a stage's chunks now: the pool's, or what a `parallel for` of the caller's
 /// settings would start. Per-thread scratch is indexed by thread_slot() below it.
-inline int stage_threads() { return t_pool ? t_pool->size() : omp_get_max_threads(); }
+inline int stage_threads() { return t_serial ? 1 : t_pool ? t_pool->size() : omp_get_max_threads(); }
 
 /// The index of the calling thread among stage_threads(), inside a chunk: a pool's worker knows
 /// its slot (t_pool is set only on the thread that runs the frame, whose slot is 0); otherwise
@@ -58,6 +84,10 @@ void parallel_for(int n, int grain, const Body& body, int threads = 0) {
   if (n <= 0) return;
   grain = std::max(grain, 1);
   const int chunks = (n + grain - 1) / grain;
+  if (t_serial) {
+    for (int c = 0; c < chunks; ++c) body(c * grain, std::min(n, (c + 1) * grain));
+    return;
+  }
   if (t_pool != nullptr) {
     struct Context {
       const Body* body;

@@ -267,17 +267,24 @@ void RowBands(const SgmBandConfig& config, int w, int y, int cw, const CoarseRow
   }
 }
 
-// Bands and costs of rows [first, last), after mirroring the rows of the right view's codes their
-// windows read (all of them into planes of the level's height, else a window of rows from
-// mirror_row0 into planes of a segment's).
-void SgmCostsRows(const CensusCodes& left, const CensusCodes& right, const Plane<std::int16_t>* coarse,
-                  const SgmBandConfig& config, int shd_window, SgmScratch& scratch, SgmVolume& v, int first,
-                  int last) {
-  const int w = v.width, h = v.height, words = left.words, hr = shd_window / 2;
+// Mirrors the rows of the right view's codes that the windows of rows [first, last) read (all of
+// them into planes of the level's height, else a window of rows from mirror_row0 into planes of
+// a segment's).
+void SgmMirrorRows(const CensusCodes& right, int shd_window, SgmVolume& v, int first, int last) {
+  const int h = v.height, hr = shd_window / 2;
   const int r0 = std::max(first - hr, 0), r1 = std::min(last + hr, h);
   v.mirror_row0 = v.mirrored[0].height() >= h ? 0 : r0;
   if (r1 - v.mirror_row0 > v.mirrored[0].height()) std::abort();  // planes too short for the window
   MirrorCodes(right, r0, r1, v);
+}
+
+// Bands and costs of rows [first, last), after mirroring the codes their windows read unless
+// `mirrored` (SgmMirrorRows() of those rows or more has run).
+void SgmCostsRows(const CensusCodes& left, const CensusCodes& right, const Plane<std::int16_t>* coarse,
+                  const SgmBandConfig& config, int shd_window, SgmScratch& scratch, SgmVolume& v, int first,
+                  int last, bool mirrored) {
+  const int w = v.width, h = v.height, words = left.words, hr = shd_window / 2;
+  if (!mirrored) SgmMirrorRows(right, shd_window, v, first, last);
   // The row's costs into the volume's entries, bytes or u16.
   const RowCostsFn<std::uint8_t> byte_costs = v.cost8 ? RowCostsOf<std::uint8_t>(words, shd_window) : nullptr;
   const RowCostsFn<std::uint16_t> wide_costs = v.cost8 ? nullptr : RowCostsOf<std::uint16_t>(words, shd_window);
@@ -333,7 +340,7 @@ void SgmCostsRows(const CensusCodes& left, const CensusCodes& right, const Plane
 
 void SgmCosts(const CensusCodes& left, const CensusCodes& right, const Plane<std::int16_t>* coarse,
               const SgmBandConfig& config, int shd_window, SgmScratch& scratch, SgmVolume& v) {
-  SgmCostsRows(left, right, coarse, config, shd_window, scratch, v, 0, v.height);
+  SgmCostsRows(left, right, coarse, config, shd_window, scratch, v, 0, v.height, false);
 }
 
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE
@@ -342,10 +349,14 @@ HWY_AFTER_NAMESPACE();
 #if HWY_ONCE
 namespace mctstereo::detail::cpu {
 HWY_EXPORT(SgmCostsRows);
+HWY_EXPORT(SgmMirrorRows);
 void sgm_costs_rows(const CensusCodes& left, const CensusCodes& right, const Plane<std::int16_t>* coarse,
                     const SgmBandConfig& config, int shd_window, SgmScratch& scratch, SgmVolume& volume, int first,
-                    int last) {
-  HWY_DYNAMIC_DISPATCH(SgmCostsRows)(left, right, coarse, config, shd_window, scratch, volume, first, last);
+                    int last, bool mirrored) {
+  HWY_DYNAMIC_DISPATCH(SgmCostsRows)(left, right, coarse, config, shd_window, scratch, volume, first, last, mirrored);
+}
+void sgm_mirror_rows(const CensusCodes& right, int shd_window, SgmVolume& volume, int first, int last) {
+  HWY_DYNAMIC_DISPATCH(SgmMirrorRows)(right, shd_window, volume, first, last);
 }
 HWY_EXPORT(SgmCosts);
 void sgm_costs(const CensusCodes& left, const CensusCodes& right, const Plane<std::int16_t>* coarse,

@@ -6,6 +6,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <initializer_list>
 #include <random>
 
 #include "cpu/sgm_segments.hpp"
@@ -470,37 +471,44 @@ TEST(SgmStages, TemporalBandsCpuEqualReference) {
   EXPECT_GT(narrowed, 1000);
 }
 
-// cpu::sgm_segmented() with segments of `rows` rows: storage for one segment's costs and sums,
-// mirrored planes of a segment's rows and the box's margins.
+// cpu::sgm_segmented() with segments of `rows` rows (storage for one segment's costs and sums,
+// mirrored planes of a segment's rows and the box's margins), or with `sweeps` cpu::sgm_two_sweeps()
+// in blocks of `rows` rows over a whole volume.
 SgmResult run_segmented(const SgmCase& c, const ShiftedPair& pair, const Plane<std::int16_t>* prior, int threads,
-                        int rows, bool byte_costs) {
+                        int rows, bool byte_costs, bool sweeps = false) {
   const int words = detail::census_words(c.census);
   const detail::CensusCodes left = reference_census(pair.left, c.census, CensusKind::Census);
   const detail::CensusCodes right = reference_census(pair.right, c.census, CensusKind::Census);
-  const std::size_t n = SgmVolume::entries_for(c.w, rows, c.max_band);
+  const std::size_t n = SgmVolume::entries_for(c.w, sweeps ? c.h : rows, c.max_band);
   auto cost = detail::allocate_aligned<std::uint16_t>(n);
   auto sum = detail::allocate_aligned<std::uint16_t>(n);
   auto cost8 = detail::allocate_aligned<std::uint8_t>(n);
   SgmVolume v;
-  v.reset(c.w, c.h, c.max_band, words, cost.get(), sum.get(), std::min(c.h, rows + 2 * (c.shd / 2)));
+  v.reset(c.w, c.h, c.max_band, words, cost.get(), sum.get(), sweeps ? 0 : std::min(c.h, rows + 2 * (c.shd / 2)));
   if (byte_costs) v.use_byte_costs(cost8.get());
-  auto states = detail::allocate_aligned<std::uint16_t>(detail::cpu::sgm_row_state_bytes(c.w, c.h, v.stride, rows) / 2);
+  const std::size_t state_bytes = sweeps ? detail::cpu::sgm_sweep_state_bytes(c.w, v.stride)
+                                         : detail::cpu::sgm_row_state_bytes(c.w, c.h, v.stride, rows);
+  auto states = detail::allocate_aligned<std::uint16_t>(state_bytes / 2);
   auto scratch = make_scratch(detail::cpu::sgm_scratch_bytes(c.w, c.h, v.stride), threads);
   SgmResult r = empty_result(c.w, c.h);
   const detail::cpu::SgmSegmentJob job{&left, &right, prior, SgmBandConfig{c.dmin, c.dmax, c.radius, c.prior_size, c.max_band},
                                        c.shd, &pair.left, SgmPathConfig{c.paths, 20, 150, c.p2k},
                                        SgmSelectConfig{c.subpixel, c.uniqueness}, rows, states.get(), &r.left, &r.right,
                                        &r.margin};
-  detail::cpu::sgm_segmented(job, scratch, v);
+  if (sweeps)
+    detail::cpu::sgm_two_sweeps(job, scratch, v);
+  else
+    detail::cpu::sgm_segmented(job, scratch, v);
   detail::cpu::confidence(r.margin, 0, r.left, &r.right, 1, r.confidence);
   copy_bands(v, r);
   return r;
 }
 
-TEST(SgmSegments, CpuEqualsReferenceOverTheWholeVolume) {
-  // Segments of 1, 2 and 3 rows, rows that do not divide the height, one segment of the whole
-  // level: the maps of the reference's whole volume, on every target, 1 and 2 threads.
-  std::uint32_t seed = 70;
+// run_segmented() (segments, or with `sweeps` two sweeps) of every 4-path case in runs of each of
+// `rows` rows (those up to the height) against the reference's whole volume, on every target,
+// 1 and 2 threads.
+void expect_rows_equal_reference(bool sweeps, std::uint32_t seed, std::initializer_list<int> rows_list) {
+  const std::string recipe = sweeps ? " in two sweeps of blocks of " : " in segments of ";
   int cases = 0;
   for (const SgmCase& c : sgm_cases()) {
     if (c.paths != 4) continue;
@@ -515,10 +523,10 @@ TEST(SgmSegments, CpuEqualsReferenceOverTheWholeVolume) {
     for_each_simd_target([&](const std::string& target) {
       for (int threads : {1, 2}) {
         omp_set_num_threads(threads);
-        for (int rows : {1, 2, 3, 7, c.h}) {
-          if (rows > c.h) continue;
-          expect_equal_maps(ref, run_segmented(c, pair, p, threads, rows, bytes),
-                            describe(c) + " in segments of " + std::to_string(rows) + " rows on " + target + ", " +
+        for (int rows : rows_list) {
+          rows = std::min(rows, c.h);
+          expect_equal_maps(ref, run_segmented(c, pair, p, threads, rows, bytes, sweeps),
+                            describe(c) + recipe + std::to_string(rows) + " rows on " + target + ", " +
                                 std::to_string(threads) + " thread(s)");
         }
       }
@@ -526,6 +534,18 @@ TEST(SgmSegments, CpuEqualsReferenceOverTheWholeVolume) {
     omp_set_num_threads(saved);
   }
   EXPECT_GE(cases, 8);
+}
+
+TEST(SgmSegments, CpuEqualsReferenceOverTheWholeVolume) {
+  // Segments of 1, 2 and 3 rows, rows that do not divide the height, one segment of the whole
+  // level (on 2 threads each segment in two sweeps).
+  expect_rows_equal_reference(false, 70, {1, 2, 3, 7, 1 << 20});
+}
+
+TEST(SgmTwoSweeps, CpuEqualsReferenceOverTheWholeVolume) {
+  // Blocks of 1, 2, 3 and 7 rows, of the driver's and of the whole level (1 and 2 rows high: a
+  // half of none).
+  expect_rows_equal_reference(true, 90, {1, 2, 3, 7, detail::cpu::kSweepRows, 1 << 20});
 }
 
 TEST(SgmSegments, PlanSegmentsLargeVolumesOnly) {
