@@ -20,7 +20,7 @@
 //     "sizes": ["WxH", ..], "presets": [..],
 //     "warmup_frames", "min_frames", "min_time_s": the flags, before the per-size scaling,
 //     "left_image", "right_image", "fit" ("stretch" or "tile": --fit), "memory_only" (--memory-only:
-//     no timing records) }
+//     no timing records), "adapt_threads" (false with --fixed-threads) }
 //   "records": one per (method, size, disparities, threads, backend) timed: {
 //     "method" (a preset, "opencv-stereobm" or "opencv-stereosgbm"), "kind" ("mctstereo" or
 //     "opencv"), "width", "height", "num_disparities" (OpenCV: rounded up to a multiple of 16),
@@ -32,7 +32,8 @@
 //     "median", "lr_check", "speckle", "fill", "upscale", "output", "download", "frame"}, the
 //     kernels' device times from profiling events and the host's times of the rest),
 //     "level_work" (reference and cpu: per level, finest first, {"width", "height", "views",
-//     "candidates"}: Matcher::level_work() of the last frame),
+//     "candidates"}: Matcher::level_work() of the last frame), "frames_alone" (mctstereo only:
+//     Matcher::frames_alone(), warm-up frames included),
 //     "ratio_to_stereobm" (fps / fps of StereoBM in the same group; null without one), last }
 //   "memory": {
 //     "peak_resident_bytes": this process's peak resident memory (VmHWM), every size included,
@@ -233,6 +234,7 @@ struct Measurement {
   double ratio_to_stereobm = std::numeric_limits<double>::quiet_NaN();  // NaN: no StereoBM in the group
   std::vector<StageTime> stage_median_ms;                               // mctstereo only
   std::vector<LevelWork> work;  // host backends: the candidates the matching examined per level
+  long frames_run = 0, frames_alone = 0;  // cpu backend: frames computed, and of those run on one thread
   double fps() const { return median_ms > 0 ? 1000.0 / median_ms : 0.0; }
 };
 
@@ -497,6 +499,7 @@ struct RunSetup {
   double min_time_s = 0.0;
   bool tile = false;  // --fit tile: the pair repeated at its own size, not resized
   bool memory_only = false;  // --memory-only: the memory table alone
+  bool fixed_threads = false;  // --fixed-threads: MatcherOptions::adapt_threads = false
 
   bool has(Backend b) const { return std::find(backends.begin(), backends.end(), b) != backends.end(); }
 };
@@ -545,6 +548,10 @@ void print_header(const RunSetup& setup) {
               policy_env ? policy_env : "(unset)");
   if (setup.tile) std::printf("frames    the pair repeated at its own size to fill each size (--fit tile)\n");
   if (setup.load > 0) std::printf("load      %d busy threads in another process during the timing\n", setup.load);
+  std::printf("threads   %s\n", setup.fixed_threads
+                                   ? "every frame on all threads (--fixed-threads)"
+                                   : "a frame runs on one thread while the threads keep waiting for each other "
+                                     "(adapt_threads; --fixed-threads: never)");
   std::printf("date      %s\n\n", utc_date().c_str());
 }
 
@@ -657,6 +664,7 @@ void time_preset(Timing& t, Group& g, const std::string& name, Backend backend, 
   MatcherOptions options;
   options.threads = g.threads_requested;
   options.device = t.setup.device;
+  options.adapt_threads = !t.setup.fixed_threads;
   PresetMethod method(open_backend(backend, t.setup.device, g.size, bench_params(name, g.num_disparities), options));
   const Matcher& matcher = method.matcher();
   std::vector<std::vector<double>> stage_ms;
@@ -677,6 +685,8 @@ void time_preset(Timing& t, Group& g, const std::string& name, Backend backend, 
   for (std::size_t s = 0; s < stage_ms.size(); ++s)
     m.stage_median_ms.push_back({matcher.timings()[s].stage, median(stage_ms[s])});
   m.work = matcher.level_work();
+  m.frames_run = plan.warmup + static_cast<long>(ms.size());
+  m.frames_alone = matcher.frames_alone();
   record(t, g, std::move(m), ms);
 }
 
@@ -732,6 +742,18 @@ void time_groups(Timing& t, const cv::Mat& left_source, const cv::Mat& right_sou
 
 // Stage medians, tables of their own so that the one above stays within 120 columns: one per
 // list of stages (the host backends share one; opencl times its kernels).
+// The presets' frames that ran on one thread (MatcherOptions::adapt_threads), where any did.
+void print_frames_alone(const std::vector<Measurement>& measurements) {
+  bool any = false;
+  for (const Measurement& m : measurements) {
+    if (m.frames_alone == 0) continue;
+    if (!any) std::printf("\nframes run on one thread while the threads kept waiting for each other (adapt_threads)\n");
+    any = true;
+    std::printf("%-10s %5d %4d  %-18s %ld of %ld frames\n", m.size.text().c_str(), m.num_disparities, m.threads,
+                m.method.c_str(), m.frames_alone, m.frames_run);
+  }
+}
+
 void print_stage_tables(const std::vector<Measurement>& measurements, Progress& progress) {
   std::vector<std::vector<std::string>> stage_lists;
   for (const Measurement& m : measurements) {
@@ -924,6 +946,7 @@ Json settings_json(const RunSetup& setup) {
   j.set("left_image", setup.left_path);
   j.set("fit", setup.tile ? "tile" : "stretch");
   j.set("memory_only", setup.memory_only);
+  j.set("adapt_threads", !setup.fixed_threads);
   j.set("right_image", setup.right_path);
   return j;
 }
@@ -943,6 +966,7 @@ Json measurement_json(const Measurement& m) {
   if (!m.backend.empty()) rec.set("backend", m.backend);
   rec.set("threads_requested", m.threads_requested);
   rec.set("warmup_frames", m.warmup);
+  if (m.kind == "mctstereo") rec.set("frames_alone", static_cast<long long>(m.frames_alone));
   if (!m.stage_median_ms.empty()) rec.set("stage_median_ms", stage_json(m.stage_median_ms));
   if (!m.work.empty()) {
     Json levels = Json::array();
@@ -1046,6 +1070,9 @@ BenchCommand::BenchCommand(CLI::App& parent)
                  "busy threads of another process during the timing (0 = none): timings on a loaded CPU")
       ->check(CLI::Range(0, 4096))
       ->capture_default_str();
+  app.add_flag("--fixed-threads", fixed_threads_,
+               "run every frame of the presets on all --threads; by default a frame runs on one thread while the "
+               "threads keep waiting for each other on a loaded CPU");
   app.add_flag("--memory-only", memory_only_,
                "measure only the memory table (no timing): every size, range and preset in a fresh process");
   app.add_option("--memory-probe", memory_probe_)->group("");  // internal: see run_memory_probe
@@ -1093,6 +1120,7 @@ void BenchCommand::run() const {
   setup.load = load_;
   setup.tile = fit_ == "tile";
   setup.memory_only = memory_only_;
+  setup.fixed_threads = fixed_threads_;
   print_header(setup);
 
   const int presets = static_cast<int>(setup.presets.size());
@@ -1107,6 +1135,7 @@ void BenchCommand::run() const {
     std::optional<CpuLoad> load(std::in_place, load_);
     time_groups(timing, left, right);
     load.reset();
+    print_frames_alone(timing.measurements);
     print_stage_tables(timing.measurements, progress);
     print_work_table(setup, timing.measurements);
   }

@@ -40,6 +40,7 @@ class BenchCommand {
   std::string memory_probe_;
   int load_probe_ = 0;
   bool memory_only_ = false;
+  bool fixed_threads_ = false;
 };
 
 }  // namespace mctstereo::app

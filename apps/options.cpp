@@ -237,6 +237,9 @@ void RunFlags::add_to(CLI::App& app) {
                  "else all cores), at most the hardware threads")
       ->check(CLI::Range(0, 4096))
       ->capture_default_str();
+  app.add_flag("--fixed-threads", fixed_threads,
+               "run every frame on all --threads; by default a frame runs on the calling thread alone while the "
+               "threads keep waiting for each other on a CPU that other processes keep busy (the same maps)");
   app.add_option("--sgm-volume-limit", sgm_volume_limit_mib,
                  "MiB: band SGM (4 paths, cpu backend) holds a level's costs and path sums whole up to this size, "
                  "and aggregates larger frames in segments of rows (the same maps, about a tenth of the memory, "
@@ -264,6 +267,7 @@ MatcherOptions RunFlags::matcher_options(bool compute_right, bool compute_confid
   options.compute_confidence = compute_confidence;
   options.device = device;
   options.sgm_volume_limit = static_cast<std::size_t>(sgm_volume_limit_mib * 1048576.0);
+  options.adapt_threads = !fixed_threads;
   return options;
 }
 

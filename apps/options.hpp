@@ -46,17 +46,18 @@ class ParameterFlags {
   std::vector<Override> overrides_;
 };
 
-/// --backend, --device, --threads and --sgm-volume-limit.
+/// --backend, --device, --threads, --fixed-threads and --sgm-volume-limit.
 struct RunFlags {
   std::string backend = "cpu";
   std::string device;  // "" = the first GPU, else the first device
   int threads = 0;
   double sgm_volume_limit_mib = static_cast<double>(MatcherOptions{}.sgm_volume_limit >> 20);
+  bool fixed_threads = false;  // --fixed-threads: MatcherOptions::adapt_threads = false
 
   void add_to(CLI::App& app);
   /// UsageError for an unknown backend, or --device with a backend that has none.
   Backend parsed_backend() const;
-  /// --threads, --device and --sgm-volume-limit as matcher options.
+  /// --threads, --fixed-threads, --device and --sgm-volume-limit as matcher options.
   MatcherOptions matcher_options(bool compute_right = false, bool compute_confidence = false) const;
   /// The matcher of these flags. Prints the notice of --backend auto ("mctstereo: note: ...") on
   /// stderr when it fell back to the cpu backend. RuntimeError naming the flag when the OpenCL

@@ -455,15 +455,18 @@ PYBIND11_MODULE(_mctstereo, m) {
   // ---- Matcher.
   py::class_<PyMatcher>(m, "Matcher",
                         "Matcher(width, height, params=None, backend='cpu', threads=0, device='', compute_right=False, "
-                        "compute_confidence=False, sgm_volume_limit=None): "
+                        "compute_confidence=False, sgm_volume_limit=None, adapt_threads=True): "
                         "allocates everything once for one image size; compute(left, right) per frame. params None is "
                         "preset('balanced'), the program's default. backend: 'reference', 'cpu', 'opencl' or 'auto'. "
                         "sgm_volume_limit: bytes of band SGM costs and sums a level holds whole (None: the library's "
-                        "default, 32 MiB); larger frames are aggregated in segments of rows, with the same maps.")
+                        "default, 32 MiB); larger frames are aggregated in segments of rows, with the same maps. "
+                        "adapt_threads: run a frame on one thread while the threads keep waiting for each other on a "
+                        "loaded CPU (the same maps); False: every frame on all threads.")
       .def(py::init([](int width, int height, std::optional<StereoParams> p, const std::string& backend, int threads,
                        const std::string& device, bool compute_right, bool compute_confidence,
-                       std::optional<std::size_t> sgm_volume_limit) {
+                       std::optional<std::size_t> sgm_volume_limit, bool adapt_threads) {
              MatcherOptions options;
+             options.adapt_threads = adapt_threads;
              options.threads = threads;
              options.device = device;
              options.compute_right = compute_right;
@@ -480,7 +483,8 @@ PYBIND11_MODULE(_mctstereo, m) {
            }),
            py::arg("width"), py::arg("height"), py::arg("params") = py::none(), py::arg("backend") = "cpu",
            py::arg("threads") = 0, py::arg("device") = "", py::arg("compute_right") = false,
-           py::arg("compute_confidence") = false, py::arg("sgm_volume_limit") = py::none())
+           py::arg("compute_confidence") = false, py::arg("sgm_volume_limit") = py::none(),
+           py::arg("adapt_threads") = true)
       .def(
           "compute",
           [](PyMatcher& self, const py::object& left_object, const py::object& right_object, const std::string& channels) {
@@ -546,6 +550,9 @@ PYBIND11_MODULE(_mctstereo, m) {
       .def_property_readonly("notice", [](const PyMatcher& s) { return s.matcher->notice(); })
       .def_property_readonly("device_name", [](const PyMatcher& s) { return s.matcher->device_name(); })
       .def_property_readonly("threads", [](const PyMatcher& s) { return s.matcher->threads(); })
+      .def_property_readonly(
+          "frames_alone", [](const PyMatcher& s) { return s.matcher->frames_alone(); },
+          "frames that ran on one thread because the threads kept waiting for each other (adapt_threads)")
       .def_property_readonly("simd_target", [](const PyMatcher& s) { return s.matcher->simd_target(); })
       .def_property_readonly("copied_inputs", [](const PyMatcher& s) { return s.copied_inputs; },
                              "How many of the last compute()'s two images had to be copied (0: both read in place)")

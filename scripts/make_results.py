@@ -305,6 +305,7 @@ class BenchRun:
         self.cpu_mhz = s.num("cpu_mhz") if s.has("cpu_mhz") else 0.0
         self.fit = s.text("fit") if s.has("fit") else "stretch"
         self.memory_only = s.has("memory_only") and s["memory_only"].value is True
+        self.adapt_threads = s.has("adapt_threads") and s["adapt_threads"].value is True
         self.simd_target = s.text("simd_target") if s.has("simd_target") else ""
         self.records = []
         for r in doc.array("records"):
@@ -313,7 +314,9 @@ class BenchRun:
                    "threads": r.whole("threads"), "threads_requested": r.whole("threads_requested"),
                    "frames": r.whole("frames"), "median_ms": r.num("median_ms"), "p95_ms": r.num("p95_ms"),
                    "fps": r.num("fps"), "ratio": r.num("ratio_to_stereobm", nullable=True),
-                   "backend": r.text("backend") if rec_is_mctstereo(r) else None, "stages": None}
+                   "backend": r.text("backend") if rec_is_mctstereo(r) else None, "stages": None,
+                   "warmup_frames": r.whole("warmup_frames"),
+                   "frames_alone": r.whole("frames_alone") if r.has("frames_alone") else None}
             if rec["backend"] == "opencl":  # per-kernel device times, upload, download and frame
                 st = r.obj("stage_median_ms")
                 rec["stages"] = {k: st.num(k) for k in st.keys()}
@@ -1357,6 +1360,12 @@ def speed_loaded(report, bench, file_name, load_threads):
                "that the OS has descheduled (src/cpu/worker_pool.hpp). With an OpenMP parallel loop per stage, each of "
                "the ~40 loops of a frame ended in a barrier for both threads, and under this load 2 threads ran "
                "several times slower than 1.")
+    if bench.adapt_threads:
+        report.add("A worker that the OS preempts in the middle of a chunk still holds up the end of its stage, so "
+                   "the matcher also keeps its mean frame time on its threads and on the calling thread alone, runs "
+                   "its frames the faster way and tries the other for 2 frames now and then "
+                   "(`MatcherOptions::adapt_threads`, src/cpu/load_policy.hpp; the maps are the same either way). "
+                   "The last column counts the frames, warm-up included, that the 2-thread matcher ran alone.")
     report.add(code(bench.command(file_name)))
     report.add(machine_line(bench.settings, bench.file, with_threads=False))
     if len(bench.thread_settings) < 2:
@@ -1371,11 +1380,17 @@ def speed_loaded(report, bench, file_name, load_threads):
                 b = bench.find(m, size, d, t2)
                 if a is None or b is None:
                     continue
-                rows.append([size_text(size), d, f"`{m}`" if a["backend"] else m, ms(a["median_ms"]),
-                             ms(b["median_ms"]), f"{a['median_ms'] / b['median_ms']:.2f}",
-                             ratio(b["ratio"])])
-    report.add(table(["size", "disparities", "method", f"{t1} thread ms", f"{t2} threads ms",
-                      f"{t2} threads speed-up", f"x BM ({t2} threads)"], rows, ["---", "---:", "---"] + ["---:"] * 4))
+                row = [size_text(size), d, f"`{m}`" if a["backend"] else m, ms(a["median_ms"]),
+                       ms(b["median_ms"]), f"{a['median_ms'] / b['median_ms']:.2f}", ratio(b["ratio"])]
+                if bench.adapt_threads:
+                    row.append(f"{b['frames_alone']} of {b['frames'] + b['warmup_frames']}" if b["frames_alone"] is not None
+                               else "-")
+                rows.append(row)
+    headers = ["size", "disparities", "method", f"{t1} thread ms", f"{t2} threads ms", f"{t2} threads speed-up",
+               f"x BM ({t2} threads)"]
+    if bench.adapt_threads:
+        headers.append(f"frames alone ({t2} threads)")
+    report.add(table(headers, rows, ["---", "---:", "---"] + ["---:"] * (len(headers) - 3)))
 
 
 def sequence_settings(doc):

@@ -12,6 +12,7 @@
 #include <thread>
 #include <utility>
 
+#include "cpu/load_policy.hpp"
 #include "cpu/parallel.hpp"
 #include "cpu/sgm_segments.hpp"
 #include "level_plan.hpp"
@@ -175,6 +176,8 @@ struct Matcher::Impl {
   std::vector<StageTime> timings;
   double slot_ms[kSlotCount] = {};
   std::unique_ptr<detail::cpu::WorkerPool> pool;  // cpu backend with more than one thread
+  detail::cpu::LoadPolicy load_policy;             // MatcherOptions::adapt_threads
+  long frames_alone = 0;                           // frames the pool's matcher ran on one thread
 
   Impl(int w, int h, const StereoParams& p, Backend b, const MatcherOptions& o)
       : width(w), height(h), params(p), backend(b), options(o) {
@@ -427,7 +430,7 @@ struct Matcher::Impl {
       detail::cpu::sgm_segmented(job, sgm_scratch, L.sgm);
       return;
     }
-    if (detail::cpu::sgm_two_sweeps_for(paths.paths, host_threads()) &&
+    if (detail::cpu::sgm_two_sweeps_for(paths.paths, detail::cpu::stage_threads()) &&
         detail::sgm_volume_bytes(L, L.height) <= detail::cpu::kSweepVolumeLimit) {
       const detail::cpu::SgmSegmentJob job{&L.codes[0], &L.codes[1], prior, band, L.shd_window, &level_image(l, 0),
                                            paths, select, detail::cpu::kSweepRows, sgm_row_states.get(),
@@ -532,9 +535,26 @@ struct Matcher::Impl {
       return;
     }
 #endif
-    // The stages hand their chunks to the matcher's threads (src/cpu/parallel.hpp).
-    const detail::cpu::PoolScope scope(pool.get());
-    run_frame(left, right);
+    if (!pool) {
+      // A matcher of one thread: its stages run on the caller's thread.
+      const detail::cpu::SerialScope alone;
+      run_frame(left, right);
+      return;
+    }
+    const bool on_threads = !options.adapt_threads || load_policy.use_threads();
+    const auto start = std::chrono::steady_clock::now();
+    if (on_threads) {
+      // The stages hand their chunks to the matcher's threads (src/cpu/parallel.hpp).
+      const detail::cpu::PoolScope scope(pool.get());
+      run_frame(left, right);
+    } else {
+      // A loaded CPU, where the threads kept waiting for each other (LoadPolicy).
+      const detail::cpu::SerialScope alone;
+      run_frame(left, right);
+      ++frames_alone;
+    }
+    const std::chrono::duration<double, std::milli> frame = std::chrono::steady_clock::now() - start;
+    load_policy.record(on_threads, frame.count());
   }
 
   // The search of view v at box level l: around its own coarser map, and with the temporal prior
@@ -746,6 +766,7 @@ std::string Matcher::device_name() const {
   return {};
 }
 int Matcher::threads() const { return impl_->threads; }
+long Matcher::frames_alone() const { return impl_->frames_alone; }
 std::string Matcher::simd_target() const {
   return impl_->backend == Backend::Reference ? "scalar" : detail::cpu::simd_target_name();
 }

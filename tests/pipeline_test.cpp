@@ -531,6 +531,38 @@ TEST(Pipeline, SgmInSegmentsEqualsTheWholeVolume) {
   }
 }
 
+// MatcherOptions::adapt_threads runs some frames of a matcher of 2 threads on the calling thread
+// alone (at least the first trial's 2 of the first 18 frames): every preset, the maps, right maps
+// and confidence of all the threads frame after frame.
+TEST(Pipeline, AdaptingTheThreadsKeepsTheMaps) {
+  const StereoPair pair = textured_pair(203, 97, 30, 8);
+  for (const std::string& name : preset_names()) {
+    StereoParams p = preset(name);
+    p.num_disparities = 32;
+    MatcherOptions adapting, fixed;
+    adapting.threads = fixed.threads = 2;
+    adapting.compute_right = fixed.compute_right = true;
+    adapting.compute_confidence = fixed.compute_confidence = true;
+    fixed.adapt_threads = false;
+    Matcher a(203, 97, p, Backend::Cpu, adapting), b(203, 97, p, Backend::Cpu, fixed);
+    if (a.threads() < 2) GTEST_SKIP() << "one hardware thread";
+    for (int frame = 0; frame < 20; ++frame) {
+      a.compute(pair.left_view(), pair.right_view());
+      b.compute(pair.left_view(), pair.right_view());
+      ASSERT_EQ(describe_difference(pixels(a.disparity_q4()), pixels(b.disparity_q4()), 203), "") << name << frame;
+      ASSERT_EQ(describe_difference(pixels(a.right_disparity_q4()), pixels(b.right_disparity_q4()), 203), "")
+          << name << frame;
+      const MapView<const float> ca = a.confidence(), cb = b.confidence();
+      long differ = 0;
+      for (int y = 0; y < 97; ++y)
+        for (int x = 0; x < 203; ++x) differ += ca.at(x, y) != cb.at(x, y);
+      ASSERT_EQ(differ, 0) << name << frame;
+    }
+    EXPECT_GE(a.frames_alone(), 2) << name;
+    EXPECT_EQ(b.frames_alone(), 0) << name;
+  }
+}
+
 // Band SGM's memory at 1280 x 720: quality, the largest, segments its finest level by default and
 // holds about as much as balanced.
 TEST(Pipeline, SgmMemoryAt720p) {

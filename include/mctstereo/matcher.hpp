@@ -49,6 +49,13 @@ struct MatcherOptions {
   /// vertical path runs twice, and the memory for costs and sums falls to one segment's (quality
   /// at 1280 x 720: 84 MiB whole, 2.6 MiB in segments). SIZE_MAX: always whole.
   std::size_t sgm_volume_limit = std::size_t{32} << 20;
+  /// The cpu backend with more than one thread: the matcher keeps the mean frame time on its
+  /// threads and on the caller's thread alone, runs frames the faster way, and tries the other for
+  /// 2 frames after 16, then after twice as many each time that confirms the choice (at most 256).
+  /// On a CPU that other processes keep busy the threads wait for each other and one thread can
+  /// be faster. The maps are the same either way. false: every frame on all the threads.
+  /// frames_alone() counts the frames run alone.
+  bool adapt_threads = true;
   /// The OpenCL device of the opencl and auto backends: "" prefers the first GPU, else the first
   /// device; a number is an index into opencl_devices(); other text picks the first device whose
   /// name or platform contains it (case-insensitive).
@@ -141,6 +148,9 @@ class Matcher {
   /// removal, which runs on the host). On the cpu backend, fewer than MatcherOptions::threads when
   /// the system could not start them all (a memory limit).
   int threads() const;
+  /// Frames so far that a matcher of several threads ran on the caller's thread alone, because its
+  /// threads kept waiting for each other on a loaded CPU (MatcherOptions::adapt_threads).
+  long frames_alone() const;
   /// SIMD target chosen at run time ("AVX3", "AVX2", "NEON", ... ; "scalar" for reference; for
   /// opencl, the host's, used by speckle removal).
   std::string simd_target() const;

@@ -89,3 +89,17 @@ def test_compute_releases_the_gil(tsukuba):
     still_matching = worker.is_alive()
     worker.join()
     assert counter > 0 and still_matching, f"frame {frame:.2f} s, main thread ran {counter} iterations"
+
+
+def test_adapting_the_threads_keeps_the_maps(tsukuba):
+    # adapt_threads (the default) runs some frames on one thread (2 of the first 18 at least, the
+    # first trial); adapt_threads=False none. The maps are the same frame after frame.
+    left, right = tsukuba
+    params = mctstereo.preset("quality", num_disparities=32)
+    adapting = mctstereo.Matcher(384, 288, params, threads=2)
+    fixed = mctstereo.Matcher(384, 288, params, threads=2, adapt_threads=False)
+    for _ in range(20):
+        np.testing.assert_array_equal(adapting.compute(left, right), fixed.compute(left, right))
+    if adapting.threads > 1:  # a machine of one core gives a matcher of one thread
+        assert adapting.frames_alone >= 2
+    assert fixed.frames_alone == 0

@@ -80,7 +80,7 @@ void sgm_segmented(const SgmSegmentJob& job, SgmScratch& scratch, SgmVolume& v) 
   SgmRowState above = state(0, -1);
   for (int s = 0; s < segments; ++s) {
     const int first = s * rows, last = std::min(first + rows, h);
-    if (sgm_two_sweeps_for(job.paths.paths, scratch.threads)) {
+    if (sgm_two_sweeps_for(job.paths.paths, std::min(scratch.threads, stage_threads()))) {
       // On 2 threads the segment's paths and winners in two sweeps (sgm_two_sweeps()): the
       // bottom-to-top path from the checkpoint below, in its storage (no longer needed), or
       // afresh in a free one (the last segment's checkpoint, or state 1 of one segment).

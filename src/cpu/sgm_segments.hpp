@@ -122,9 +122,10 @@ inline std::size_t sgm_sweep_state_bytes(int w, int stride) {
 /// sgm_costs, sgm_aggregate and sgm_select of a whole volume in two sweeps, in blocks of
 /// job.segment_rows rows, on two tasks (job.row_states: sgm_sweep_state_bytes()). The top half's
 /// rows are H / 2:
-/// 1. the costs of the level;
+/// 1. the right view's codes mirrored (sgm_mirror_rows());
 /// 2. task 0 walks the top-to-bottom path down the top half, task 1 the bottom-to-top path up the
-///    bottom half, each writing the sums and adding both horizontal paths of its rows;
+///    bottom half, each making a block's bands and costs, writing its sums and adding both
+///    horizontal paths of its rows;
 /// 3. task 0 walks its path on down the bottom half, task 1 its path on up the top half, each
 ///    adding into the sums and picking the winners of its rows.
 void sgm_two_sweeps(const SgmSegmentJob& job, SgmScratch& scratch, SgmVolume& volume);

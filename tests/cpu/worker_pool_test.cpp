@@ -8,6 +8,7 @@
 
 #include <gtest/gtest.h>
 
+#include "cpu/load_policy.hpp"
 #include "cpu/parallel.hpp"
 #include "cpu/worker_pool.hpp"
 
@@ -87,6 +88,45 @@ TEST(ParallelFor, CoversTheRangeOnceWithAndWithoutAPool) {
     EXPECT_EQ(stage_threads(), with_pool ? 2 : omp_get_max_threads());
   }
   EXPECT_EQ(t_pool, nullptr) << "the scope gives the previous pool back";
+}
+
+TEST(LoadPolicy, RunsTheFasterWayAndTriesTheOtherLessOftenWhileItLoses) {
+  LoadPolicy p;
+  // Frame times of a way: the threads 10 ms, alone `alone_ms`. Returns the frames alone of `n`.
+  double alone_ms = 15.0;
+  const auto frames = [&](int n) {
+    int alone = 0;
+    for (int i = 0; i < n; ++i) {
+      const bool threads = p.use_threads();
+      alone += !threads;
+      p.record(threads, threads ? 10.0 : alone_ms);
+    }
+    return alone;
+  };
+  // Idle: the threads, with trials alone of 2 frames after 16, 32, 64, 128, 256, 256 ... frames.
+  EXPECT_TRUE(p.use_threads());
+  EXPECT_EQ(frames(16), 0);
+  EXPECT_EQ(frames(2), 2);  // the first trial
+  EXPECT_EQ(p.frames_to_trial(), 32);
+  EXPECT_EQ(frames(32 + 2 + 64 + 2 + 128 + 2), 6);
+  EXPECT_EQ(p.frames_to_trial(), 256);
+  EXPECT_EQ(frames(256 + 2), 2);
+  EXPECT_EQ(p.frames_to_trial(), LoadPolicy::kLongestGap);
+  // Loaded: alone becomes faster. The next trial finds it so, and frames run alone from then on,
+  // with trials of the threads after 16, 32, ... frames.
+  alone_ms = 6.0;
+  EXPECT_EQ(frames(256 + 2), 2);
+  EXPECT_FALSE(p.use_threads());
+  EXPECT_EQ(p.frames_to_trial(), LoadPolicy::kFirstGap);
+  EXPECT_EQ(frames(16), 16);
+  EXPECT_EQ(frames(2), 0);  // the trial of the threads, still slower
+  EXPECT_EQ(p.frames_to_trial(), 32);
+  // The load goes: the next trial of the threads wins them back.
+  alone_ms = 15.0;
+  EXPECT_EQ(frames(32), 32);
+  EXPECT_EQ(frames(2), 0);
+  EXPECT_TRUE(p.use_threads());
+  EXPECT_EQ(p.frames_to_trial(), LoadPolicy::kFirstGap);
 }
 
 }  // namespace
