@@ -550,8 +550,8 @@ void print_header(const RunSetup& setup) {
   if (setup.load > 0) std::printf("load      %d busy threads in another process during the timing\n", setup.load);
   std::printf("threads   %s\n", setup.fixed_threads
                                    ? "every frame on all threads (--fixed-threads)"
-                                   : "a frame runs on one thread while the threads keep waiting for each other "
-                                     "(adapt_threads; --fixed-threads: never)");
+                                   : "each frame on all threads or on one, whichever the matcher's recent frames "
+                                     "found faster (adapt_threads; --fixed-threads: all)");
   std::printf("date      %s\n\n", utc_date().c_str());
 }
 
@@ -740,20 +740,20 @@ void time_groups(Timing& t, const cv::Mat& left_source, const cv::Mat& right_sou
   }
 }
 
-// Stage medians, tables of their own so that the one above stays within 120 columns: one per
-// list of stages (the host backends share one; opencl times its kernels).
 // The presets' frames that ran on one thread (MatcherOptions::adapt_threads), where any did.
 void print_frames_alone(const std::vector<Measurement>& measurements) {
   bool any = false;
   for (const Measurement& m : measurements) {
     if (m.frames_alone == 0) continue;
-    if (!any) std::printf("\nframes run on one thread while the threads kept waiting for each other (adapt_threads)\n");
+    if (!any) std::printf("\nframes run on one thread (adapt_threads: trials, or one thread was faster)\n");
     any = true;
     std::printf("%-10s %5d %4d  %-18s %ld of %ld frames\n", m.size.text().c_str(), m.num_disparities, m.threads,
                 m.method.c_str(), m.frames_alone, m.frames_run);
   }
 }
 
+// Stage medians, tables of their own so that the one above stays within 120 columns: one per
+// list of stages (the host backends share one; opencl times its kernels).
 void print_stage_tables(const std::vector<Measurement>& measurements, Progress& progress) {
   std::vector<std::vector<std::string>> stage_lists;
   for (const Measurement& m : measurements) {
@@ -1071,8 +1071,8 @@ BenchCommand::BenchCommand(CLI::App& parent)
       ->check(CLI::Range(0, 4096))
       ->capture_default_str();
   app.add_flag("--fixed-threads", fixed_threads_,
-               "run every frame of the presets on all --threads; by default a frame runs on one thread while the "
-               "threads keep waiting for each other on a loaded CPU");
+               "run every frame of the presets on all --threads; by default a matcher runs its frames on all of them "
+               "or on one, whichever its recent frames found faster (on a loaded CPU, one can be)");
   app.add_flag("--memory-only", memory_only_,
                "measure only the memory table (no timing): every size, range and preset in a fresh process");
   app.add_option("--memory-probe", memory_probe_)->group("");  // internal: see run_memory_probe

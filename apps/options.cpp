@@ -238,8 +238,9 @@ void RunFlags::add_to(CLI::App& app) {
       ->check(CLI::Range(0, 4096))
       ->capture_default_str();
   app.add_flag("--fixed-threads", fixed_threads,
-               "run every frame on all --threads; by default a frame runs on the calling thread alone while the "
-               "threads keep waiting for each other on a CPU that other processes keep busy (the same maps)");
+               "run every frame on all --threads; by default the matcher runs its frames on all of them or on the "
+               "calling thread alone, whichever its recent frames found faster (on a CPU that other processes keep "
+               "busy, one can be; the same maps)");
   app.add_option("--sgm-volume-limit", sgm_volume_limit_mib,
                  "MiB: band SGM (4 paths, cpu backend) holds a level's costs and path sums whole up to this size, "
                  "and aggregates larger frames in segments of rows (the same maps, about a tenth of the memory, "

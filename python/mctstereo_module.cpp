@@ -460,8 +460,8 @@ PYBIND11_MODULE(_mctstereo, m) {
                         "preset('balanced'), the program's default. backend: 'reference', 'cpu', 'opencl' or 'auto'. "
                         "sgm_volume_limit: bytes of band SGM costs and sums a level holds whole (None: the library's "
                         "default, 32 MiB); larger frames are aggregated in segments of rows, with the same maps. "
-                        "adapt_threads: run a frame on one thread while the threads keep waiting for each other on a "
-                        "loaded CPU (the same maps); False: every frame on all threads.")
+                        "adapt_threads: run frames on all threads or on one, whichever the recent frames found faster "
+                        "(on a loaded CPU, one can be; the same maps); False: every frame on all threads.")
       .def(py::init([](int width, int height, std::optional<StereoParams> p, const std::string& backend, int threads,
                        const std::string& device, bool compute_right, bool compute_confidence,
                        std::optional<std::size_t> sgm_volume_limit, bool adapt_threads) {
@@ -552,7 +552,7 @@ PYBIND11_MODULE(_mctstereo, m) {
       .def_property_readonly("threads", [](const PyMatcher& s) { return s.matcher->threads(); })
       .def_property_readonly(
           "frames_alone", [](const PyMatcher& s) { return s.matcher->frames_alone(); },
-          "frames that ran on one thread because the threads kept waiting for each other (adapt_threads)")
+          "frames run on one thread by adapt_threads (its trials, or where one thread was faster)")
       .def_property_readonly("simd_target", [](const PyMatcher& s) { return s.matcher->simd_target(); })
       .def_property_readonly("copied_inputs", [](const PyMatcher& s) { return s.copied_inputs; },
                              "How many of the last compute()'s two images had to be copied (0: both read in place)")

@@ -542,19 +542,17 @@ struct Matcher::Impl {
       return;
     }
     const bool on_threads = !options.adapt_threads || load_policy.use_threads();
-    const auto start = std::chrono::steady_clock::now();
     if (on_threads) {
       // The stages hand their chunks to the matcher's threads (src/cpu/parallel.hpp).
       const detail::cpu::PoolScope scope(pool.get());
       run_frame(left, right);
     } else {
-      // A loaded CPU, where the threads kept waiting for each other (LoadPolicy).
+      // On the calling thread alone: faster of late (a loaded CPU), or a trial (LoadPolicy).
       const detail::cpu::SerialScope alone;
       run_frame(left, right);
       ++frames_alone;
     }
-    const std::chrono::duration<double, std::milli> frame = std::chrono::steady_clock::now() - start;
-    load_policy.record(on_threads, frame.count());
+    if (options.adapt_threads) load_policy.record(on_threads, slot_ms[kFrame]);  // run_frame's own time
   }
 
   // The search of view v at box level l: around its own coarser map, and with the temporal prior

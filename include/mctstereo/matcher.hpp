@@ -148,8 +148,8 @@ class Matcher {
   /// removal, which runs on the host). On the cpu backend, fewer than MatcherOptions::threads when
   /// the system could not start them all (a memory limit).
   int threads() const;
-  /// Frames so far that a matcher of several threads ran on the caller's thread alone, because its
-  /// threads kept waiting for each other on a loaded CPU (MatcherOptions::adapt_threads).
+  /// Frames so far that a matcher of several threads ran on the caller's thread alone
+  /// (MatcherOptions::adapt_threads: its trials, and frames where one thread was the faster way).
   long frames_alone() const;
   /// SIMD target chosen at run time ("AVX3", "AVX2", "NEON", ... ; "scalar" for reference; for
   /// opencl, the host's, used by speckle removal).
