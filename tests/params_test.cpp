@@ -64,7 +64,7 @@ TEST(Params, SgmParametersAreChecked) {
   q = p;
   q.aggregation = Aggregation::Box;
   q.prior_size = 3;
-  expect_message(q, "box_levels = 1 needs SGM aggregation");
+  expect_message(q, "box_levels = 2 needs SGM aggregation");
   // 8 paths x (9 x 9 x 80 + 300) = 54240 fits; 8 x (6480 + 2000) does not.
   q = p;
   q.box_levels = 0;

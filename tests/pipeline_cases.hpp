@@ -201,6 +201,12 @@ inline std::vector<PipelineCase> pipeline_cases() {
   all_sgm.min_disparity = -3;
   all_sgm.num_disparities = 29;
   out.push_back({"sgm_at_every_level", all_sgm, 87, 41});
+  // SGM at the two coarser of three levels (balanced's box levels 1): the middle SGM level picks the
+  // right view's winners for the box level above it, and its prior is the coarsest SGM map.
+  StereoParams two_sgm = preset("balanced");
+  two_sgm.box_levels = 1;
+  two_sgm.num_disparities = 40;
+  out.push_back({"sgm_at_the_two_coarser_levels", two_sgm, 103, 57});
   StereoParams one_sgm = preset("balanced");
   one_sgm.pyramid_levels = 4;
   one_sgm.box_levels = 3;

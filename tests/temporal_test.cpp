@@ -76,9 +76,9 @@ std::vector<std::pair<std::string, StereoParams>> temporal_cases() {
   StereoParams scaled = temporal(preset("quality"));
   scaled.working_scale = 2;
   cases.push_back({"quality working scale 2", scaled});
-  StereoParams right = temporal(preset("balanced"));
-  right.box_levels = 2;  // box sums at two levels, both views matched
-  cases.push_back({"balanced box levels 2", right});
+  StereoParams hybrid = temporal(preset("balanced"));
+  hybrid.box_levels = 1;  // SGM at the middle level too: the left view only there
+  cases.push_back({"balanced box levels 1", hybrid});
   return cases;
 }
 
@@ -262,13 +262,15 @@ TEST(Temporal, ParametersAndMemory) {
               std::string::npos);
   }
   p.temporal_threshold = 12;
-  // The previous maps and images of the narrowed levels: balanced's two finer levels (both views
-  // at the box level, the left one at the SGM level).
+  // The previous maps and images of the narrowed levels: balanced's two finer levels, both box
+  // levels (both views at each); with SGM at the middle level, its left view only.
   StereoParams alone = p;
   alone.temporal = false;
   const std::size_t full = detail::Plane<std::int16_t>::bytes_for(kW, kH) + detail::Plane<std::uint8_t>::bytes_for(kW, kH);
   const std::size_t half =
       detail::Plane<std::int16_t>::bytes_for(kW / 2, kH / 2) + detail::Plane<std::uint8_t>::bytes_for(kW / 2, kH / 2);
+  EXPECT_EQ(estimate_memory(p, kW, kH) - estimate_memory(alone, kW, kH), 2 * full + 2 * half);
+  p.box_levels = alone.box_levels = 1;
   EXPECT_EQ(estimate_memory(p, kW, kH) - estimate_memory(alone, kW, kH), 2 * full + half);
 }
 
