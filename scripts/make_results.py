@@ -1367,8 +1367,8 @@ def speed_loaded(report, bench, file_name, load_threads):
                "several times slower than 1.")
     if bench.adapt_threads:
         report.add("A worker that the OS preempts in the middle of a chunk still holds up the end of its stage, so "
-                   "the matcher also keeps its mean frame time on its threads and on the calling thread alone, runs "
-                   "its frames the faster way and tries the other for 2 frames now and then "
+                   "the matcher also keeps its recent frame times on its threads and on the calling thread alone, "
+                   "runs its frames the faster way and tries the other for 3 frames now and then "
                    "(`MatcherOptions::adapt_threads`, src/cpu/load_policy.hpp; the maps are the same either way). "
                    "The last column counts the frames, warm-up included, that the 2-thread matcher ran alone.")
     report.add(code(bench.command(file_name)))

@@ -49,9 +49,11 @@ struct MatcherOptions {
   /// vertical path runs twice, and the memory for costs and sums falls to one segment's (quality
   /// at 1280 x 720: 84 MiB whole, 2.6 MiB in segments). SIZE_MAX: always whole.
   std::size_t sgm_volume_limit = std::size_t{32} << 20;
-  /// The cpu backend with more than one thread: the matcher keeps the mean frame time on its
-  /// threads and on the caller's thread alone, runs frames the faster way, and tries the other for
-  /// 2 frames after 16, then after twice as many each time that confirms the choice (at most 256).
+  /// The cpu backend with more than one thread: the matcher keeps the recent frame times (the
+  /// median of the last 8) on its threads and on the caller's thread alone, runs frames the faster
+  /// way, and tries the other for 3 frames (their median) after 16, then after twice as many each
+  /// time that confirms the choice (at most 256), and sooner (16 frames after the last trial) once
+  /// the way it runs has become slower than the other was when last tried.
   /// On a CPU that other processes keep busy the threads wait for each other and one thread can
   /// be faster. The maps are the same either way. false: every frame on all the threads.
   /// frames_alone() counts the frames run alone.

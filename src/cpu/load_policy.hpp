@@ -5,56 +5,95 @@
 // worker that the OS takes off the CPU in the middle of a chunk holds up the end of its stage for
 // the rest of a scheduler time slice (milliseconds), and a waiting thread spends its own share of
 // the CPU polling. On a CPU that other processes keep busy that happens at stage after stage, and
-// 2 threads ran slower than 1 (bench --load 2). So the matcher keeps the mean frame time of each
+// 2 threads ran slower than 1 (bench --load 2). So the matcher keeps the recent frame times of each
 // way, runs its frames the faster way, and tries the other way for a few frames now and then: after
 // 16 frames, and after twice as many each time the trial confirms the choice (at most 256), so
-// that on an idle machine the trials cost little. The maps do not depend on it: every stage is
-// bit-exact for any thread count.
+// that on an idle machine the trials cost little; and as soon as the way it runs has become slower
+// than the other was when last tried (a load that starts), at most every 16 frames. The maps do
+// not depend on it: every stage is bit-exact for any thread count.
+//
+// Each way's time is the median of its last frames, and a trial's the median of its 3 frames: on a
+// loaded CPU a frame that the OS preempts takes several times the others, and a mean of a trial's
+// frames followed it (measured: 2 threads ran 113 of 119 frames at 5.3 ms where 1 took 3.0).
 #pragma once
 
 #include <algorithm>
+#include <array>
 
 namespace mctstereo::detail::cpu {
 
+/// The last few frame times of one way, and their median.
+class RecentTimes {
+ public:
+  static constexpr int kCapacity = 8;
+
+  void clear() { count_ = next_ = 0; }
+  void push(double ms) {
+    times_[next_] = ms;
+    next_ = (next_ + 1) % kCapacity;
+    count_ = std::min(count_ + 1, kCapacity);
+  }
+  int count() const { return count_; }
+  /// The median of the stored times (the upper one of an even count); -1 without any.
+  double median() const {
+    if (count_ == 0) return -1;
+    std::array<double, kCapacity> sorted{};
+    for (int i = 0; i < count_; ++i) {  // insertion sort of at most 8
+      int j = i;
+      for (; j > 0 && sorted[j - 1] > times_[i]; --j) sorted[j] = sorted[j - 1];
+      sorted[j] = times_[i];
+    }
+    return sorted[count_ / 2];
+  }
+
+ private:
+  std::array<double, kCapacity> times_{};
+  int count_ = 0, next_ = 0;
+};
+
 class LoadPolicy {
  public:
-  /// Weight of a new frame in the mean time of the way it ran.
-  static constexpr double kWeight = 0.25;
   /// Frames of a trial of the other way, and the first and the longest gap between trials.
-  static constexpr int kTrialFrames = 2, kFirstGap = 16, kLongestGap = 256;
+  static constexpr int kTrialFrames = 3, kFirstGap = 16, kLongestGap = 256;
+  /// Frames of the way that runs whose median may call a trial before its gap ends.
+  static constexpr int kEarlyFrames = 5;
 
   /// Whether the next frame runs on the threads.
   bool use_threads() const { return trial_left_ > 0 ? !threads_best_ : threads_best_; }
 
   /// After a frame: whether it ran on the threads, and its wall time.
   void record(bool on_threads, double frame_ms) {
+    RecentTimes& mine = on_threads ? threads_ : alone_;
     if (trial_left_ > 0) {
-      // A trial's mean is of its own frames: the other way's mean may be from long ago.
-      trial_sum_ += frame_ms;
+      // A trial's time is of its own frames: the way's earlier frames may be from long ago.
+      if (trial_left_ == kTrialFrames) mine.clear();
+      mine.push(frame_ms);
       if (--trial_left_ > 0) return;
-      (on_threads ? threads_ms_ : alone_ms_) = trial_sum_ / kTrialFrames;
-      const bool threads_faster = threads_ms_ <= alone_ms_;
+      const bool threads_faster = threads_.median() <= alone_.median();
       gap_ = threads_faster == threads_best_ ? std::min(2 * gap_, kLongestGap) : kFirstGap;
       threads_best_ = threads_faster;
       until_trial_ = gap_;
+      since_trial_ = 0;
       return;
     }
-    double& mean = on_threads ? threads_ms_ : alone_ms_;
-    mean = mean < 0 ? frame_ms : mean + kWeight * (frame_ms - mean);
-    if (--until_trial_ == 0) {
+    mine.push(frame_ms);
+    ++since_trial_;
+    const RecentTimes& other = on_threads ? alone_ : threads_;
+    const bool slower_than_other = other.count() > 0 && mine.count() >= kEarlyFrames && since_trial_ >= kFirstGap &&
+                                   mine.median() > other.median();
+    if (--until_trial_ == 0 || slower_than_other) {
       trial_left_ = kTrialFrames;
-      trial_sum_ = 0;
+      until_trial_ = 0;
     }
   }
 
-  /// Frames until the next trial of the other way (0 during one).
+  /// Frames until the next trial of the other way that the schedule sets (0 during one).
   int frames_to_trial() const { return trial_left_ > 0 ? 0 : until_trial_; }
 
  private:
-  double threads_ms_ = -1, alone_ms_ = -1;  // mean frame times; -1: none yet
+  RecentTimes threads_, alone_;
   bool threads_best_ = true;
-  int gap_ = kFirstGap, until_trial_ = kFirstGap, trial_left_ = 0;
-  double trial_sum_ = 0;
+  int gap_ = kFirstGap, until_trial_ = kFirstGap, trial_left_ = 0, since_trial_ = 0;
 };
 
 }  // namespace mctstereo::detail::cpu

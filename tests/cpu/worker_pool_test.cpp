@@ -103,30 +103,71 @@ TEST(LoadPolicy, RunsTheFasterWayAndTriesTheOtherLessOftenWhileItLoses) {
     }
     return alone;
   };
-  // Idle: the threads, with trials alone of 2 frames after 16, 32, 64, 128, 256, 256 ... frames.
+  // Idle: the threads, with trials alone of 3 frames after 16, 32, 64, 128, 256, 256 ... frames.
   EXPECT_TRUE(p.use_threads());
   EXPECT_EQ(frames(16), 0);
-  EXPECT_EQ(frames(2), 2);  // the first trial
+  EXPECT_EQ(frames(3), 3);  // the first trial
   EXPECT_EQ(p.frames_to_trial(), 32);
-  EXPECT_EQ(frames(32 + 2 + 64 + 2 + 128 + 2), 6);
+  EXPECT_EQ(frames(32 + 3 + 64 + 3 + 128 + 3), 9);
   EXPECT_EQ(p.frames_to_trial(), 256);
-  EXPECT_EQ(frames(256 + 2), 2);
+  EXPECT_EQ(frames(256 + 3), 3);
   EXPECT_EQ(p.frames_to_trial(), LoadPolicy::kLongestGap);
-  // Loaded: alone becomes faster. The next trial finds it so, and frames run alone from then on,
-  // with trials of the threads after 16, 32, ... frames.
+  // Loaded, where the threads keep their time: alone becomes faster. The next trial finds it so,
+  // and frames run alone from then on, with trials of the threads after 16, 32, ... frames.
   alone_ms = 6.0;
-  EXPECT_EQ(frames(256 + 2), 2);
+  EXPECT_EQ(frames(256 + 3), 3);
   EXPECT_FALSE(p.use_threads());
   EXPECT_EQ(p.frames_to_trial(), LoadPolicy::kFirstGap);
   EXPECT_EQ(frames(16), 16);
-  EXPECT_EQ(frames(2), 0);  // the trial of the threads, still slower
+  EXPECT_EQ(frames(3), 0);  // the trial of the threads, still slower
   EXPECT_EQ(p.frames_to_trial(), 32);
-  // The load goes: the next trial of the threads wins them back.
+  // The load goes: the frames alone take longer than the threads' last trial, so the threads are
+  // tried 16 frames after it, not 32, and win back.
   alone_ms = 15.0;
-  EXPECT_EQ(frames(32), 32);
-  EXPECT_EQ(frames(2), 0);
+  EXPECT_EQ(frames(16), 16);
+  EXPECT_EQ(p.frames_to_trial(), 0);
+  EXPECT_EQ(frames(3), 0);
   EXPECT_TRUE(p.use_threads());
   EXPECT_EQ(p.frames_to_trial(), LoadPolicy::kFirstGap);
+}
+
+// A load that slows the way that runs calls a trial of the other way 16 frames after the last
+// trial, not at the end of a gap of up to 256; and a trial is judged by the median of its frames,
+// so that one frame the OS preempted does not decide.
+TEST(LoadPolicy, TriesTheOtherWayWhenTheLoadStartsAndIgnoresAPreemptedFrame) {
+  LoadPolicy p;
+  const auto run = [&](int n, double threads_ms, double alone_ms) {
+    int alone = 0;
+    for (int i = 0; i < n; ++i) {
+      const bool threads = p.use_threads();
+      alone += !threads;
+      p.record(threads, threads ? threads_ms : alone_ms);
+    }
+    return alone;
+  };
+  // Idle until the gap is the longest: threads 10 ms, alone 15.
+  EXPECT_EQ(run(16 + 3 + 32 + 3 + 64 + 3 + 128 + 3, 10.0, 15.0), 12);
+  EXPECT_EQ(p.frames_to_trial(), LoadPolicy::kLongestGap);
+  // The load starts: the threads take 20 ms, alone 12. Their median passes alone's 15 within the
+  // 16 frames after the last trial, and the trial comes then.
+  EXPECT_EQ(run(16, 20.0, 12.0), 0);
+  EXPECT_EQ(p.frames_to_trial(), 0);
+  EXPECT_EQ(run(3, 20.0, 12.0), 3);
+  EXPECT_FALSE(p.use_threads());
+  // A trial of the threads whose third frame was preempted: 8, 8 and 80 ms against alone's 12.
+  EXPECT_EQ(run(16, 8.0, 12.0), 16);
+  for (const double ms : {8.0, 8.0, 80.0}) {
+    ASSERT_TRUE(p.use_threads());
+    p.record(true, ms);
+  }
+  EXPECT_TRUE(p.use_threads()) << "the median of the trial, 8 ms, wins";
+  // Alone, one slow frame among the recent ones does not call a trial either.
+  LoadPolicy q;
+  for (int i = 0; i < 16; ++i) q.record(true, 10.0);
+  for (int i = 0; i < 3; ++i) q.record(false, 15.0);  // the first trial: the threads stay
+  ASSERT_TRUE(q.use_threads());
+  for (int i = 0; i < 20; ++i) q.record(true, i == 17 ? 100.0 : 10.0);
+  EXPECT_EQ(q.frames_to_trial(), 32 - 20);
 }
 
 }  // namespace
