@@ -100,7 +100,7 @@ void add_weighted_median(StereoParams& p) {
 // back to the whole range. On Middlebury 2003 and 2005/2006 (docs/PIPELINE.md, "Box sums at the
 // finest levels"): 6.26 % and 10.12 %, against 5.80 and 10.04 with SGM at the middle level too
 // (box_levels 1) and 49 weighted-median samples, in two thirds of the frame time (640 x 480, 64
-// disparities, 2 threads: 1.69 x StereoBM's frame rate against 1.16 x). SGM at every level with the
+// disparities, 2 threads: 1.69 x StereoBM's frame rate against 1.15 x). SGM at every level with the
 // uniqueness test scored 5.82 and 10.91 in twice the time of box_levels 1. The weighted median
 // samples 5 x 5 (radius 6, step 3): as good as 7 x 7 behind the box levels (6.19 and 10.17 with
 // step 2) in half its time.
