@@ -103,11 +103,18 @@ void add_weighted_median(StereoParams& p) {
 // disparities, 2 threads: 1.69 x StereoBM's frame rate against 1.15 x). SGM at every level with the
 // uniqueness test scored 5.82 and 10.91 in twice the time of box_levels 1. The weighted median
 // samples 5 x 5 (radius 6, step 3): as good as 7 x 7 behind the box levels (6.19 and 10.17 with
-// step 2) in half its time.
+// step 2) in half its time. The box levels search radius 2 around the coarser map (5 candidates
+// where it is flat) and the speckle removal takes regions under 50 px: the box levels' wrong
+// regions are smaller than SGM's, and the 100 px of the SGM presets also took away right ones.
+// Both sets gain (6.13 % and 9.72 %, against 6.26 and 10.12 with radius 3 and 100 px; 6.01 and
+// 9.78 with radius 3 and 50 px; 6.38 and 9.98 with radius 2 and 100 px) and the frame is some 6 %
+// shorter (docs/PIPELINE.md, "Box sums at the finest levels").
 StereoParams make_balanced() {
   StereoParams p = make_band_sgm();
   p.box_levels = 2;
   p.uniqueness_ratio = 0;
+  p.search_radius = 2;
+  p.speckle_size = 50;
   add_weighted_median(p);
   p.wm_step = 3;
   return p;
@@ -161,7 +168,7 @@ StereoParams make_mr_mct_5x5() {
 constexpr PresetEntry kPresets[] = {
     {"realtime", "CT 5x5, 4 levels, search radius 1, median 3, LR check and median 3 after filling at the finest level: the fastest preset, for robots and AR",
      make_realtime},
-    {"balanced", "band SGM at the coarsest of 3 levels (CT 5x5, 4 paths), local 3x3 box matching around the coarser level's map at the two finer levels (radius 3), then median 3, LR check, speckle removal, fill, colour-weighted median (5 x 5 samples): the default",
+    {"balanced", "band SGM at the coarsest of 3 levels (CT 5x5, 4 paths), local 3x3 box matching around the coarser level's map at the two finer levels (radius 2), then median 3, LR check, removal of speckles under 50 px, fill, colour-weighted median (5 x 5 samples): the default",
      make_balanced},
     {"quality", "band SGM at every level (CT 5x5, 3 levels, 4 paths, 5x5 prior, radius 3), a wider band at the finest level (radius 6, up to 32 candidates), uniqueness 10 %, then median 3, LR check, speckle removal, fill, colour-weighted median: the best maps",
      make_quality},

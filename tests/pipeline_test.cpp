@@ -485,14 +485,14 @@ TEST(Pipeline, LevelWorkCountsTheCandidatesOfEachLevel) {
   EXPECT_LE(band_work.front().candidates, static_cast<double>(sgm.sgm_max_band));
 
   // balanced: the finest level matches both views with box sums around the SGM level's maps
-  // (3x3 prior, radius 3: at least 7 candidates), the SGM levels count as before.
+  // (3x3 prior, radius 2: at least 5 candidates), the SGM levels count as before.
   sgm.box_levels = 1;
   Matcher hybrid(256, 128, sgm);
   hybrid.compute(left, right);
   const std::vector<LevelWork> hybrid_work = hybrid.level_work();
   ASSERT_EQ(hybrid_work.size(), band_work.size());
   EXPECT_EQ(hybrid_work[0].views, 2);
-  EXPECT_GE(hybrid_work[0].candidates, 7.0);
+  EXPECT_GE(hybrid_work[0].candidates, 5.0);
   EXPECT_LE(hybrid_work[0].candidates, 20.0);
   for (std::size_t l = 1; l < hybrid_work.size(); ++l) {
     EXPECT_EQ(hybrid_work[l].views, 1) << l;

@@ -3,6 +3,7 @@
 // (a still scene, a moving and approaching object, a cut to another scene) no frame is worse than
 // the same frame matched alone by more than noise, and a still scene needs fewer candidates.
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <stdexcept>
 #include <string>
@@ -212,12 +213,14 @@ void compare_with_frames_alone(const std::vector<Scene>& frames, const char* nam
 
 TEST(Temporal, StillSceneNeedsFewerCandidatesAndKeepsItsMap) {
   for (const char* name : {"balanced", "quality"}) {
-    compare_with_frames_alone(still_frames(), name, [](std::size_t f, double with_prior, double alone) {
+    compare_with_frames_alone(still_frames(), name, [name](std::size_t f, double with_prior, double alone) {
       if (f == 0) {
         EXPECT_EQ(with_prior, alone);
       } else {
-        // balanced searches 7 candidates around its prior where the coarse map is flat, quality 13.
-        EXPECT_LT(with_prior, 0.7 * alone) << "frame " << f;
+        // Where the coarse map is flat, balanced searches 5 candidates around its prior and
+        // quality 13, and with the previous frame's map both 3 (temporal radius 1).
+        std::printf("%s frame %zu: %.2f candidates with the prior, %.2f alone\n", name, f, with_prior, alone);
+        EXPECT_LT(with_prior, (name == std::string("balanced") ? 0.8 : 0.5) * alone) << "frame " << f;
       }
     });
   }
