@@ -107,7 +107,7 @@ void add_weighted_median(StereoParams& p) {
 // where it is flat) and the speckle removal takes regions under 50 px: the box levels' wrong
 // regions are smaller than SGM's, and the 100 px of the SGM presets also took away right ones.
 // Both sets gain (6.13 % and 9.72 %, against 6.26 and 10.12 with radius 3 and 100 px; 6.01 and
-// 9.78 with radius 3 and 50 px; 6.38 and 9.98 with radius 2 and 100 px) and the frame is some 6 %
+// 9.78 with radius 3 and 50 px; 6.38 and 9.98 with radius 2 and 100 px) and the frame some 5 %
 // shorter (docs/PIPELINE.md, "Box sums at the finest levels").
 StereoParams make_balanced() {
   StereoParams p = make_band_sgm();
