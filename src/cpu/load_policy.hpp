@@ -73,18 +73,15 @@ class LoadPolicy {
       gap_ = threads_faster == threads_best_ ? std::min(2 * gap_, kLongestGap) : kFirstGap;
       threads_best_ = threads_faster;
       until_trial_ = gap_;
-      since_trial_ = 0;
       return;
     }
     mine.push(frame_ms);
-    ++since_trial_;
+    --until_trial_;
+    const int since_trial = gap_ - until_trial_;  // frames since the last trial ended
     const RecentTimes& other = on_threads ? alone_ : threads_;
-    const bool slower_than_other = other.count() > 0 && mine.count() >= kEarlyFrames && since_trial_ >= kFirstGap &&
+    const bool slower_than_other = other.count() > 0 && mine.count() >= kEarlyFrames && since_trial >= kFirstGap &&
                                    mine.median() > other.median();
-    if (--until_trial_ == 0 || slower_than_other) {
-      trial_left_ = kTrialFrames;
-      until_trial_ = 0;
-    }
+    if (until_trial_ == 0 || slower_than_other) trial_left_ = kTrialFrames;
   }
 
   /// Frames until the next trial of the other way that the schedule sets (0 during one).
@@ -93,7 +90,7 @@ class LoadPolicy {
  private:
   RecentTimes threads_, alone_;
   bool threads_best_ = true;
-  int gap_ = kFirstGap, until_trial_ = kFirstGap, trial_left_ = 0, since_trial_ = 0;
+  int gap_ = kFirstGap, until_trial_ = kFirstGap, trial_left_ = 0;
 };
 
 }  // namespace mctstereo::detail::cpu
