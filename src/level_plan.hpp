@@ -181,6 +181,7 @@ inline LevelPlan plan_levels(const StereoParams& p, int width, int height, bool 
     L.speckle = p.speckle_size >> (2 * L.scale_log2);
     L.temporal = p.temporal && !L.coarsest && p.temporal_radius < L.radius;
     L.is_sgm = p.sgm_at(l);
+    if (L.is_sgm && L.coarsest && l > 0) L.dmax = sgm_coarsest_max(L.dmin, p.max_disparity(), L.scale_log2);
     if (L.is_sgm) {
       L.sgm_band = sgm_band_width(p, L.dmin, L.dmax, lw, L.coarsest);
       L.sgm_stride = SgmVolume::stride_for(L.sgm_band);

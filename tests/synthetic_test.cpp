@@ -46,6 +46,15 @@ TEST_P(Synthetic, NegativeDisparities) {
   EXPECT_GE(fraction_within_1px(s, p), 0.95);
 }
 
+// Disparities at the top of the range (0 .. 63): the coarsest level of band SGM ends at
+// floor(63 / 4) = 15, below the 15.5 and 15.75 of this scene, and the finer levels reach them.
+TEST_P(Synthetic, TopOfTheRange) {
+  const Scene s = make_scene(320, 240, [](int x, int) { return x < 190 ? 62.0 : 63.0; }, 2.0, 29);
+  StereoParams p = preset(GetParam());
+  p.num_disparities = 64;
+  EXPECT_GE(fraction_within_1px(s, p), 0.95);
+}
+
 // Sub-pixel on a slanted plane, whose true disparities have every fraction: rounding to whole
 // pixels alone leaves a mean error of 0.25 px, so a mean under 0.2 px over nearly every pixel, with
 // many values fractional, needs the parabola; the same preset with sub-pixel off stays above it.

@@ -298,7 +298,9 @@ TEST_F(BenchCli, ListsGiveOneRecordPerCombination) {
 
 TEST_F(BenchCli, MatcherMemoryGrowsWithTheSearchWidthNotTheRange) {
   // 1280x720, 64 and 256 disparities: a full cost volume would grow fourfold (by 1280 x 720 x 192
-  // x 2 bytes = 337 MiB), the matcher's buffers only by its match scratch rows.
+  // x 2 bytes = 337 MiB), the matcher's buffers only by its match scratch rows and the coarsest
+  // level's SGM volume (the whole range at a sixteenth of the pixels: 320 x 180 x 48 x 3 bytes =
+  // 7.9 MiB more).
   const Result r = bench(
       "--sizes 1280x720 --num-disparities 64,256 --threads 2 --presets balanced --frames 1 --warmup 0 --min-time 0 "
       "--json b.json");
@@ -323,7 +325,7 @@ TEST_F(BenchCli, MatcherMemoryGrowsWithTheSearchWidthNotTheRange) {
     EXPECT_GT(peak[k], 0.5 * estimate[k]) << d;
     EXPECT_LT(peak[k], 2.0 * estimate[k] + 8 * 1048576.0) << d;
   }
-  EXPECT_LT(peak[1], 1.25 * peak[0]) << "64: " << peak[0] << " bytes, 256: " << peak[1] << " bytes";
+  EXPECT_LT(peak[1], 1.35 * peak[0]) << "64: " << peak[0] << " bytes, 256: " << peak[1] << " bytes";
   EXPECT_NE(r.output.find("1280x720     256  balanced"), std::string::npos) << r.output;
 }
 
