@@ -106,8 +106,9 @@ using DU16 = MinTagU16;
 // The state a path carries from one pixel to the next on its line.
 struct PathState {
   std::uint16_t* prev;  // the predecessor's values (padded), then the buffer of the next values
-  std::uint16_t* cur;
-  int m_prev = kSgmInf, lo_prev = 0, gray_prev = 0;  // m_prev == kSgmInf: (re)start the path
+  std::uint16_t* cur;   // (slots of one vector: the values are replaced in prev, cur is unused)
+  // m_prev == kSgmInf (all of prev +inf): the path (re)starts, L = C.
+  int m_prev = kSgmInf, lo_prev = 0, gray_prev = 0;
 };
 
 // The planes of one row that a step reads and writes, looked up once per row: through the
@@ -156,7 +157,9 @@ HWY_INLINE void PathStep(const RowView& r, int x, const PathConstants& c, PathSt
   const int stride = kVecs > 0 ? kVecs * n : c.stride;
   const std::size_t slot = static_cast<std::size_t>(x) * stride;
   std::uint16_t* sum = r.sum + slot;
-  std::uint16_t* l = st.cur + c.pad;
+  // A slot of one vector is read whole before it is written: its values replace the predecessor's
+  // in place, and the buffers need no swap.
+  std::uint16_t* l = (kVecs == 1 ? st.prev : st.cur) + c.pad;
   const int lo = r.lo[x], g = r.gray[x];
   auto vmin = hn::Set(d, kSgmInf);
   // The values go to the buffer (for the next step) and into the sums in the same pass.
@@ -166,28 +169,28 @@ HWY_INLINE void PathStep(const RowView& r, int x, const PathConstants& c, PathSt
     if constexpr (kSums == kAddSums) hn::StoreU(hn::SaturatedAdd(hn::LoadU(d, sum + k), value), d, sum + k);
     vmin = hn::Min(vmin, value);
   };
-  if (st.m_prev == kSgmInf) {
-    // The path starts here (or its predecessor had no candidate): L = C.
-    for (int k = 0; k < stride; k += n) emit(k, LoadCosts<kBytes>(d, r, slot + k));
-  } else {
-    const int s = std::clamp(lo - st.lo_prev, -(stride + 1), stride + 1);
-    const std::uint16_t* q = st.prev + c.pad + s;
-    const auto p1 = hn::Set(d, c.p1);
-    const auto m = hn::Set(d, static_cast<std::uint16_t>(st.m_prev));
-    const int diff = g > st.gray_prev ? g - st.gray_prev : st.gray_prev - g;
-    const auto jump = hn::Set(d, static_cast<std::uint16_t>(st.m_prev + c.p2_of_diff[diff]));
-    for (int k = 0; k < stride; k += n) {
-      const auto same = hn::LoadU(d, q + k);
-      const auto below = hn::SaturatedAdd(hn::LoadU(d, q + k - 1), p1);
-      const auto above = hn::SaturatedAdd(hn::LoadU(d, q + k + 1), p1);
-      const auto t = hn::Min(hn::Min(same, jump), hn::Min(below, above));
-      emit(k, hn::SaturatedAdd(LoadCosts<kBytes>(d, r, slot + k), hn::Sub(t, m)));
-    }
+  // Where the path starts (or its predecessor had no candidate) m(q) = +inf and every value of q
+  // is +inf: the jump saturates to +inf too, so t = +inf, t - m = 0 and L = C, with no branch.
+  const int limit = stride + 1;
+  int s = lo - st.lo_prev;
+  s = s > limit ? limit : s;
+  s = s < -limit ? -limit : s;
+  const std::uint16_t* q = st.prev + c.pad + s;
+  const auto p1 = hn::Set(d, c.p1);
+  const auto m = hn::Set(d, static_cast<std::uint16_t>(st.m_prev));
+  const int diff = g > st.gray_prev ? g - st.gray_prev : st.gray_prev - g;
+  const auto jump = hn::SaturatedAdd(m, hn::Set(d, static_cast<std::uint16_t>(c.p2_of_diff[diff])));
+  for (int k = 0; k < stride; k += n) {
+    const auto same = hn::LoadU(d, q + k);
+    const auto below = hn::SaturatedAdd(hn::LoadU(d, q + k - 1), p1);
+    const auto above = hn::SaturatedAdd(hn::LoadU(d, q + k + 1), p1);
+    const auto t = hn::Min(hn::Min(same, jump), hn::Min(below, above));
+    emit(k, hn::SaturatedAdd(LoadCosts<kBytes>(d, r, slot + k), hn::Sub(t, m)));
   }
   st.m_prev = MinLaneOf(d, vmin);
   st.lo_prev = lo;
   st.gray_prev = g;
-  std::swap(st.prev, st.cur);
+  if constexpr (kVecs != 1) std::swap(st.prev, st.cur);
 }
 
 PathState fresh_state(std::uint16_t* buffers, int entries) {
