@@ -173,8 +173,7 @@ HWY_INLINE void PathStep(const RowView& r, int x, const PathConstants& c, PathSt
   // is +inf: the jump saturates to +inf too, so t = +inf, t - m = 0 and L = C, with no branch.
   const int limit = stride + 1;
   int s = lo - st.lo_prev;
-  s = s > limit ? limit : s;
-  s = s < -limit ? -limit : s;
+  if (static_cast<unsigned>(s + limit) > static_cast<unsigned>(2 * limit)) s = s < 0 ? -limit : limit;
   const std::uint16_t* q = st.prev + c.pad + s;
   const auto p1 = hn::Set(d, c.p1);
   const auto m = hn::Set(d, static_cast<std::uint16_t>(st.m_prev));
@@ -198,9 +197,13 @@ PathState fresh_state(std::uint16_t* buffers, int entries) {
   return PathState{buffers, buffers + entries};
 }
 
+// The walks below take the constants by value: a copy of their own that no store into the path
+// buffers or sums can alias, so that the compiler keeps them in registers across the steps
+// instead of reloading them after every store.
+
 // A path along one line (a diagonal), pixel after pixel.
 template <class D, int kVecs, bool kBytes>
-void PathLine(const Plane<std::uint8_t>& gray, const PathConstants& c, int x, int y, int dx, int dy,
+void PathLine(const Plane<std::uint8_t>& gray, PathConstants c, int x, int y, int dx, int dy,
               std::uint16_t* buffers, SgmVolume& v) {
   PathState st = fresh_state(buffers, path_buffer_entries(v.stride));
   for (; x >= 0 && x < v.width && y >= 0 && y < v.height; x += dx, y += dy)
@@ -211,7 +214,7 @@ void PathLine(const Plane<std::uint8_t>& gray, const PathConstants& c, int x, in
 // before through m(q) (a reduction over the lanes), so one line alone is latency-bound;
 // interleaving independent lines fills that time.
 template <class D, int kSums, int kVecs, bool kBytes>
-void PathRows(const Plane<std::uint8_t>& gray, const PathConstants& c, int y0, int block, int last, int dx,
+void PathRows(const Plane<std::uint8_t>& gray, PathConstants c, int y0, int block, int last, int dx,
               std::uint16_t* buffers, SgmVolume& v) {
   const int entries = path_buffer_entries(v.stride);
   const int rows = std::min(y0 + block, last) - y0;
@@ -234,7 +237,7 @@ void PathRows(const Plane<std::uint8_t>& gray, const PathConstants& c, int y0, i
 // block's slots a few rows ahead are prefetched. Rows [first, last), from the columns' values in
 // `from` (or afresh), leaving them in `to` (when not null).
 template <class D, int kSums, int kVecs, bool kBytes>
-void PathColumns(const Plane<std::uint8_t>& gray, const PathConstants& c, int x0, int block, int dy, int first,
+void PathColumns(const Plane<std::uint8_t>& gray, PathConstants c, int x0, int block, int dy, int first,
                  int last, const SgmRowState* from, SgmRowState* to, std::uint16_t* buffers, SgmVolume& v) {
   const int entries = path_buffer_entries(v.stride);
   const int x1 = std::min(x0 + block, v.width);
