@@ -35,6 +35,7 @@ import io
 import json
 import math
 import os
+import statistics
 import sys
 import textwrap
 
@@ -1111,9 +1112,7 @@ class Repeated:
 
     def __init__(self, values):
         self.values = sorted(v for v in values if v is not None)
-        n = len(self.values)
-        self.median = None if n == 0 else (self.values[n // 2] if n % 2 else
-                                           (self.values[n // 2 - 1] + self.values[n // 2]) / 2)
+        self.median = statistics.median(self.values) if self.values else None
 
     def text(self, unit):
         """'R x unit', and with several runs ', the median of N runs (lowest-highest)'."""
@@ -1123,25 +1122,25 @@ class Repeated:
                 f"({ratio(self.values[0])}-{ratio(self.values[-1])})")
 
 
+def headline_records(bench, size, disparities, threads):
+    """The records of every method of one bench file at one size, range and thread count."""
+    records = {m: bench.find(m, size, disparities, threads) for m in bench.methods()}
+    records = {m: r for m, r in records.items() if r is not None}
+    if STEREOBM not in records:
+        raise InputError(f"{bench.file}: no {STEREOBM} record at {size_text(size)}, {disparities} disparities, "
+                         f"threads {threads}")
+    return records
+
+
 def speed_headline(report, bench, file_name, ev2003, repeats=()):
     size = pick(bench.sizes, (640, 480))
     disparities = pick(bench.disparities, 64)
     threads = pick(bench.thread_settings, 2)
-    methods = bench.methods()
-    records = {m: bench.find(m, size, disparities, threads) for m in methods}
-    records = {m: r for m, r in records.items() if r is not None}
+    records = headline_records(bench, size, disparities, threads)
     # The targets' ratios in this run and in each repeat of it (same size, range and threads).
-    runs = [headline_ratios(records)]
-    for run in repeats:
-        found = {m: run.find(m, size, disparities, threads) for m in run.methods()}
-        if found.get(STEREOBM) is None:
-            raise InputError(f"{run.file}: no {STEREOBM} record at {size_text(size)}, {disparities} disparities, "
-                             f"threads {threads}")
-        runs.append(headline_ratios({m: r for m, r in found.items() if r is not None}))
+    runs = [headline_ratios(records)] + [headline_ratios(headline_records(run, size, disparities, threads))
+                                         for run in repeats]
     target = {m: Repeated(run[m] for run in runs) for m in ("realtime", "balanced", "quality")}
-    if STEREOBM not in records:
-        raise InputError(f"{bench.file}: no {STEREOBM} record at {size_text(size)}, {disparities} disparities, "
-                         f"threads {threads}")
     used_threads = records[STEREOBM]["threads"]
     group = bench_group_text(size, disparities, used_threads)
     report.add("## Speed against OpenCV")

@@ -173,7 +173,7 @@ inline LevelPlan plan_levels(const StereoParams& p, int width, int height, bool 
     L.height = lh;
     L.scale_log2 = scale_steps + l;
     L.dmin = level_min(p.min_disparity, L.scale_log2);
-    L.dmax = level_max(p.max_disparity(), L.scale_log2);
+    L.dmax = level_dmax(p, l, L.scale_log2);
     L.shd_window = l == 0 ? p.shd_window : p.coarse_shd_window;
     L.radius = l == 0 ? p.finest_radius() : p.search_radius;
     L.refine = l == 0 || p.refine_all_levels;
@@ -181,7 +181,6 @@ inline LevelPlan plan_levels(const StereoParams& p, int width, int height, bool 
     L.speckle = p.speckle_size >> (2 * L.scale_log2);
     L.temporal = p.temporal && !L.coarsest && p.temporal_radius < L.radius;
     L.is_sgm = p.sgm_at(l);
-    if (L.is_sgm && L.coarsest && l > 0) L.dmax = sgm_coarsest_max(L.dmin, p.max_disparity(), L.scale_log2);
     if (L.is_sgm) {
       L.sgm_band = sgm_band_width(p, L.dmin, L.dmax, lw, L.coarsest);
       L.sgm_stride = SgmVolume::stride_for(L.sgm_band);

@@ -475,13 +475,18 @@ inline constexpr int kMaxWeightedMedianSamples = 31 * 31;
 /// Level range [floor(dmin / 2^l), ceil(dmax / 2^l)].
 inline int level_min(int dmin, int l) { return dmin >> l; }  // arithmetic shift = floor
 inline int level_max(int dmax, int l) { return -((-dmax) >> l); }
-/// The top of the range of a band SGM level that is the coarsest of a pyramid (pyramid level > 0,
-/// scale 2^l): floor(dmax / 2^l) instead of the ceiling. Its band is its whole range, in slots
-/// rounded up to 16 entries: N disparities from 0, N a multiple of 2^l x 16, give N / 2^l
-/// candidates in one slot instead of N / 2^l + 1 in a slot twice as wide. The ceiling's extra
-/// candidate d = ceil(dmax / 2^l) stands for full-resolution disparities above 2^l floor(dmax / 2^l)
-/// that the finer levels reach from the candidate below it (their search radius).
-inline int sgm_coarsest_max(int dmin_level, int dmax, int l) { return std::max(dmin_level, dmax >> l); }
+/// The top of the range of pyramid level `level` at scale 2^l: level_max(), except at a band SGM
+/// level that is the coarsest of a pyramid (level > 0), which ends at floor(dmax / 2^l). Its band
+/// is its whole range, in slots rounded up to 16 entries: N disparities from 0, N a multiple of
+/// 2^l x 16, give N / 2^l candidates in one slot instead of N / 2^l + 1 in a slot twice as wide.
+/// The ceiling's extra candidate stands for full-resolution disparities above
+/// 2^l floor(dmax / 2^l), which the finer levels reach from the candidate below it (their search
+/// radius).
+inline int level_dmax(const StereoParams& p, int level, int l) {
+  if (p.sgm_at(level) && level > 0 && level + 1 == p.pyramid_levels)
+    return std::max(level_min(p.min_disparity, l), p.max_disparity() >> l);
+  return level_max(p.max_disparity(), l);
+}
 
 // ---------------------------------------------------------------------------------------------
 // The stages. Both namespaces declare exactly the same functions.

@@ -141,9 +141,7 @@ inline FrameResult reference_frame(const ImageView& left, const ImageView& right
     L.height = L.image[0].height();
     L.scale_log2 = steps + l;
     L.dmin = detail::level_min(p.min_disparity, L.scale_log2);
-    L.dmax = detail::level_max(p.max_disparity(), L.scale_log2);
-    if (p.sgm_at(l) && l > 0 && l + 1 == p.pyramid_levels)
-      L.dmax = detail::sgm_coarsest_max(L.dmin, p.max_disparity(), L.scale_log2);
+    L.dmax = detail::level_dmax(p, l, L.scale_log2);
   }
   const int w0 = levels[0].width, h0 = levels[0].height;
 
