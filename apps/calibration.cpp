@@ -312,6 +312,7 @@ class StorageReader {
   StorageReader(const std::vector<std::string>& paths, const FileErrors& errors) : errors_(errors) {
     for (const std::string& path : paths) {
       const FileErrors file_errors{path};
+      paths_.push_back(path);
       cv::FileStorage& storage = storages_.emplace_back();
       try {
         storage.open(path, cv::FileStorage::READ);
@@ -399,15 +400,23 @@ class StorageReader {
     return data.size() == static_cast<std::size_t>(r) * static_cast<std::size_t>(c) ? r * c : 0;
   }
 
-  // The key's node in the first file that has it; an empty node when none has.
+  // The key's node in the first file that has it; an empty node when none has. OpenCV throws from
+  // a lookup in a file that it parsed without complaint but whose top-level map it cannot walk.
   cv::FileNode node(const std::string& key) const {
-    for (const cv::FileStorage& storage : storages_) {
-      const cv::FileNode n = storage[key];
+    for (std::size_t i = 0; i < storages_.size(); ++i) {
+      cv::FileNode n;
+      try {
+        n = storages_[i][key];
+      } catch (const cv::Exception& e) {
+        FileErrors{paths_[i]}.fail("cannot look up key '" + key + "', malformed OpenCV FileStorage file: " +
+                                   trimmed(e.err));
+      }
       if (!n.empty() && !n.isNone()) return n;
     }
     return {};
   }
 
+  std::vector<std::string> paths_;  // of storages_, one for one
   std::vector<cv::FileStorage> storages_;
   const FileErrors& errors_;
 };
