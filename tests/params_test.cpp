@@ -19,7 +19,8 @@ TEST(Params, EveryPresetIsValidAndDistinct) {
   EXPECT_EQ(preset("sgm-full").pyramid_levels, 1);
   EXPECT_EQ(preset("sgm-full").aggregation, Aggregation::Sgm4);
   EXPECT_EQ(preset("balanced").aggregation, Aggregation::Sgm4);
-  EXPECT_GT(preset("quality").finest_radius(), preset("balanced").finest_radius());
+  EXPECT_LT(preset("quality").box_levels, preset("balanced").box_levels);
+  EXPECT_GT(preset("quality").sgm_max_band, preset("balanced").sgm_max_band);
   EXPECT_EQ(preset("realtime").aggregation, Aggregation::Box);
 }
 

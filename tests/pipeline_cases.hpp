@@ -245,7 +245,7 @@ inline std::vector<PipelineCase> pipeline_cases() {
   StereoParams sgm_wide = preset("sgm-full");
   sgm_wide.num_disparities = 260;
   out.push_back({"sgm_full_260_disparities", sgm_wide, 300, 6});
-  StereoParams sgm_rows = preset("quality");
+  StereoParams sgm_rows = sgm_every_level();
   sgm_rows.num_disparities = 20;
   out.push_back({"sgm_two_rows", sgm_rows, 45, 2});
   // The colour-weighted median (gray input here; colour in the tests of their own): on the

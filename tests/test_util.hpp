@@ -21,6 +21,19 @@ namespace mctstereo::test {
 
 using detail::Plane;
 
+/// Band SGM at every level, the finest with a wide band (radius 6, up to 32 candidates), uniqueness
+/// 10 % and speckles under 100 px: the most SGM work a preset-like configuration asks for (SGM's
+/// finest level at full resolution, its segments, a band wider than one vector), which `quality`
+/// no longer does since its finest level matches with box sums.
+inline StereoParams sgm_every_level() {
+  StereoParams p = preset("quality");
+  p.box_levels = 0;
+  p.finest_search_radius = 6;
+  p.uniqueness_ratio = 10;
+  p.speckle_size = 100;
+  return p;
+}
+
 /// A W x H gray plane of seeded uniform noise; `pad` as in Plane (stride is padded anyway).
 inline Plane<std::uint8_t> random_image(int w, int h, std::uint32_t seed, int pad = 0) {
   Plane<std::uint8_t> p(w, h, pad);

@@ -44,10 +44,12 @@ struct MatcherOptions {
   /// its winner selection finds the second best anyway.
   bool compute_confidence = false;
   /// Band SGM (4 paths) on the cpu backend: the most bytes of costs and path sums of a level held
-  /// whole. A frame whose largest SGM level needs more (quality from about 1024 x 768 on) is
-  /// aggregated in segments of rows, with the same maps: every cost is made twice and one
-  /// vertical path runs twice, and the memory for costs and sums falls to one segment's (quality
-  /// at 1280 x 720: 84 MiB whole, 2.6 MiB in segments). SIZE_MAX: always whole.
+  /// whole. A frame whose largest SGM level needs more (SGM at every level with 32 candidates at
+  /// the finest, from about 1024 x 768 on; quality, whose largest SGM level is the middle one of
+  /// three, from about four times as many pixels) is aggregated in segments of rows, with the same
+  /// maps: every cost is made twice and one vertical path runs twice, and the memory for costs and
+  /// sums falls to one segment's (SGM at every level at 1280 x 720: 84 MiB whole, 2.6 MiB in
+  /// segments). SIZE_MAX: always whole.
   std::size_t sgm_volume_limit = std::size_t{32} << 20;
   /// The cpu backend with more than one thread: the matcher keeps the recent frame times (the
   /// median of the last 8) on its threads and on the caller's thread alone, runs frames the faster

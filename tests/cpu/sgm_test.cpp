@@ -401,9 +401,9 @@ TEST(SgmStages, ByteCostsWhereEveryCostFits) {
   EXPECT_TRUE(detail::sgm_byte_costs(3, 3));   // 72
   EXPECT_FALSE(detail::sgm_byte_costs(5, 5));  // 600
   EXPECT_FALSE(detail::sgm_byte_costs(3, 7));  // 432
-  // The plan: quality's three levels take bytes; with a 5x5 box at the finest level that level
+  // The plan: the three SGM levels take bytes; with a 5x5 box at the finest level that level
   // takes 16 bits, and the storage is sized for the largest of entries x entry size.
-  StereoParams q = preset("quality");
+  StereoParams q = sgm_every_level();
   q.num_disparities = 64;
   const detail::LevelPlan plan = detail::plan_levels(q, 640, 480, true);
   for (const detail::LevelSpec& L : plan.levels) EXPECT_TRUE(L.sgm_byte_costs);
@@ -549,7 +549,7 @@ TEST(SgmTwoSweeps, CpuEqualsReferenceOverTheWholeVolume) {
 }
 
 TEST(SgmSegments, PlanSegmentsLargeVolumesOnly) {
-  StereoParams q = preset("quality");
+  StereoParams q = sgm_every_level();
   q.num_disparities = 256;
   const std::size_t limit = std::size_t{32} << 20;
   // 640 x 480 fits (28 MiB of costs and sums at the finest level): whole volumes.

@@ -55,7 +55,10 @@ std::vector<PipelineCase> sgm_cases() {
   constant.sgm_p2_k = 0;
   constant.num_disparities = 20;
   out.push_back({"constant_p2", constant, 66, 40});
-  StereoParams adaptive = preset("quality");
+  StereoParams every_level = sgm_every_level();
+  every_level.num_disparities = 24;
+  out.push_back({"sgm_every_level", every_level, 97, 61});
+  StereoParams adaptive = sgm_every_level();
   adaptive.sgm_p2_k = 30;
   adaptive.sgm_p1 = 15;
   adaptive.sgm_p2 = 120;
