@@ -1576,9 +1576,10 @@ def speed_scaling(report, bench, file_name):
                "the census and the matching cost more per pixel there than at 640x480. "
                "**Refine** (median, LR check, fill) and "
                "**gray**/**pyramid** are passes over whole planes, bound by memory traffic once a plane leaves the "
-               "L2 cache: their time per pixel is what grows at 4K. Band SGM (`quality` at every level, `balanced` "
-               "at its coarsest level) passes over its volume of costs and sums four times per level, a volume "
-               "larger than the L2 cache at every size timed here. Three measurements of `quality` on a 2-core "
+               "L2 cache: their time per pixel is what grows at 4K. Band SGM (`quality` at its two coarser levels, "
+               "`balanced` at its coarsest) passes over its volume of costs and sums four times per level, a volume "
+               "larger than the L2 cache at every size timed here. Three measurements of SGM at every level (the "
+               "previous `quality`) on a 2-core "
                "Zen 5 VM (alternating runs, in both orders) show what its time does and does not follow. Costs of "
                "16 bits in place of bytes (a byte more per entry, three vector operations fewer per path step) "
                "made it 13 % slower on 1 thread and 6 % on 2, at 640x480. Yet picking each row's winners from a "
@@ -1590,7 +1591,7 @@ def speed_scaling(report, bench, file_name):
                "1280x720 (ranges 52-74, 62-82 and 67-105 over five runs of `bench --data data --fit tile --sizes "
                "320x240,640x480,1280x720 --num-disparities 64 --threads 1 --presets quality --min-time 1`), while "
                "the finest level's costs and sums grow from 7 MB, inside the 32 MB L3, to 88 MB. "
-               "`balanced`'s two finer levels match with box sums, as the local presets do.")
+               "`balanced`'s two finer levels and `quality`'s finest match with box sums, as the local presets do.")
 
 
 def speed_opencl(report, bench, file_name):
