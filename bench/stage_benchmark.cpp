@@ -8,7 +8,8 @@
 // smooth random texture, at 450 x 375 (Middlebury 2003) and 640 x 480, 1 thread and all; then
 // whole frames with and without the stage.
 //
-// Band SGM's three stages (costs, paths, winners) at the finest level of `quality`: 640 x 480 with
+// Band SGM's three stages (costs, paths, winners) at the finest level of SGM at every level (`quality`
+// with `--box-levels 0 --finest-radius 6 --uniqueness 10 --speckle-size 100`): 640 x 480 with
 // 64 disparities, a prior from the 320 x 240 level below, radius 6, bands of up to 32 candidates,
 // CT 5x5 with 3x3 boxes (byte costs), 4 paths with the preset's penalties, uniqueness 10 %, both
 // views; 1 thread and all. The scene: a textured background at 12 px with a nearer square at 40 px
@@ -158,11 +159,21 @@ BENCHMARK_CAPTURE(frame, quality_no_wm_640x480, "quality", false, 640, 480)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
-// The finest SGM level of `quality` at w x h, ready for any of its stages: codes of both views, the
-// coarser level's map as the prior, the volume with its storage, and the stages' scratch.
+// SGM at every level, the finest with radius 6 (up to 32 candidates) and uniqueness 10 %.
+mctstereo::StereoParams sgm_every_level() {
+  mctstereo::StereoParams p = mctstereo::preset("quality");
+  p.box_levels = 0;
+  p.finest_search_radius = 6;
+  p.uniqueness_ratio = 10;
+  p.speckle_size = 100;
+  return p;
+}
+
+// The finest level of SGM at every level at w x h, ready for any of its stages: codes of both
+// views, the coarser level's map as the prior, the volume with its storage, and the stages' scratch.
 struct SgmLevel {
   int w, h;
-  mctstereo::StereoParams params = mctstereo::preset("quality");
+  mctstereo::StereoParams params = sgm_every_level();
   Plane<std::uint8_t> left, right;
   detail::CensusCodes codes[2];
   Plane<std::int16_t> prior, map[2];
