@@ -212,18 +212,20 @@ void compare_with_frames_alone(const std::vector<Scene>& frames, const char* nam
 
 // The presets and SGM at every level, with the largest fraction of the candidates alone that the
 // prior may leave at the finest level of a still scene.
-const std::pair<const char*, double> kTemporalPresets[] = {{"balanced", 0.8}, {"quality", 0.9}, {"sgm every level", 0.5}};
+struct TemporalCase {
+  const char* name;
+  StereoParams params;
+  double fraction;
+};
 
-StereoParams temporal_preset(const std::string& name) {
-  return name == "sgm every level" ? sgm_every_level() : preset(name);
+std::vector<TemporalCase> still_scene_cases() {
+  return {{"balanced", preset("balanced"), 0.8}, {"quality", preset("quality"), 0.9},
+          {"sgm every level", sgm_every_level(), 0.5}};
 }
 
 TEST(Temporal, StillSceneNeedsFewerCandidatesAndKeepsItsMap) {
-  for (const auto& entry : kTemporalPresets) {
-    const char* name = entry.first;
-    const double fraction = entry.second;
-    compare_with_frames_alone(still_frames(), name, temporal_preset(name),
-                              [name, fraction](std::size_t f, double with_prior, double alone) {
+  for (const TemporalCase& c : still_scene_cases()) {
+    compare_with_frames_alone(still_frames(), c.name, c.params, [&c](std::size_t f, double with_prior, double alone) {
       if (f == 0) {
         EXPECT_EQ(with_prior, alone);
       } else {
@@ -231,17 +233,16 @@ TEST(Temporal, StillSceneNeedsFewerCandidatesAndKeepsItsMap) {
         // at their box-sum finest level (measured 6.3 and 6.7 per pixel with the edges), SGM at
         // the finest level 13 (radius 6), and with the previous frame's map all 3 (temporal
         // radius 1; measured 4.7, 5.6 and under a half).
-        std::printf("%s frame %zu: %.2f candidates with the prior, %.2f alone\n", name, f, with_prior, alone);
-        EXPECT_LT(with_prior, fraction * alone) << "frame " << f;
+        std::printf("%s frame %zu: %.2f candidates with the prior, %.2f alone\n", c.name, f, with_prior, alone);
+        EXPECT_LT(with_prior, c.fraction * alone) << "frame " << f;
       }
     });
   }
 }
 
 TEST(Temporal, MotionAndCutAreNoWorseThanEachFrameAlone) {
-  for (const auto& entry : kTemporalPresets) {
-    compare_with_frames_alone(moving_then_cut_frames(), entry.first, temporal_preset(entry.first),
-                              [](std::size_t f, double with_prior, double alone) {
+  for (const TemporalCase& c : still_scene_cases()) {
+    compare_with_frames_alone(moving_then_cut_frames(), c.name, c.params, [](std::size_t f, double with_prior, double alone) {
       // The prior never widens a search.
       EXPECT_LE(with_prior, alone) << "frame " << f;
     });
