@@ -552,7 +552,11 @@ PYBIND11_MODULE(_mctstereo, m) {
       .def_property_readonly("threads", [](const PyMatcher& s) { return s.matcher->threads(); })
       .def_property_readonly(
           "frames_alone", [](const PyMatcher& s) { return s.matcher->frames_alone(); },
-          "frames run on one thread by adapt_threads (its trials, or where one thread was faster)")
+          "frames run on one thread: by adapt_threads (its trials, or where one thread was faster) and by single_threaded")
+      .def_property(
+          "single_threaded", [](const PyMatcher& s) { return s.matcher->single_threaded(); },
+          [](PyMatcher& s, bool single) { s.matcher->set_single_threaded(single); },
+          "True: the next frames run on the calling thread alone (the same maps), e.g. while a consumer of the maps is the bottleneck")
       .def_property_readonly("simd_target", [](const PyMatcher& s) { return s.matcher->simd_target(); })
       .def_property_readonly("copied_inputs", [](const PyMatcher& s) { return s.copied_inputs; },
                              "How many of the last compute()'s two images had to be copied (0: both read in place)")

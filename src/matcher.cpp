@@ -178,6 +178,7 @@ struct Matcher::Impl {
   std::unique_ptr<detail::cpu::WorkerPool> pool;  // cpu backend with more than one thread
   detail::cpu::LoadPolicy load_policy;             // MatcherOptions::adapt_threads
   long frames_alone = 0;                           // frames the pool's matcher ran on one thread
+  bool single_threaded = false;                    // Matcher::set_single_threaded
 
   Impl(int w, int h, const StereoParams& p, Backend b, const MatcherOptions& o)
       : width(w), height(h), params(p), backend(b), options(o) {
@@ -541,6 +542,12 @@ struct Matcher::Impl {
       run_frame(left, right);
       return;
     }
+    if (single_threaded) {
+      const detail::cpu::SerialScope alone;
+      run_frame(left, right);
+      ++frames_alone;
+      return;
+    }
     const bool on_threads = !options.adapt_threads || load_policy.use_threads();
     if (on_threads) {
       // The stages hand their chunks to the matcher's threads (src/cpu/parallel.hpp).
@@ -765,6 +772,8 @@ std::string Matcher::device_name() const {
 }
 int Matcher::threads() const { return impl_->threads; }
 long Matcher::frames_alone() const { return impl_->frames_alone; }
+void Matcher::set_single_threaded(bool single) { impl_->single_threaded = single; }
+bool Matcher::single_threaded() const { return impl_->single_threaded; }
 std::string Matcher::simd_target() const {
   return impl_->backend == Backend::Reference ? "scalar" : detail::cpu::simd_target_name();
 }

@@ -2,6 +2,7 @@
 // conventions; no allocation per frame (opencl included).
 #include <omp.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
@@ -565,6 +566,29 @@ TEST(Pipeline, AdaptingTheThreadsKeepsTheMaps) {
     EXPECT_GE(a.frames_alone(), 2) << name;
     EXPECT_EQ(b.frames_alone(), 0) << name;
   }
+}
+
+// set_single_threaded(true) runs exactly the frames between it and set_single_threaded(false) on
+// the caller's thread alone (frames_alone counts them), with the maps of all the threads.
+TEST(Pipeline, SingleThreadedFramesKeepTheMaps) {
+  const StereoPair pair = textured_pair(203, 97, 30, 8);
+  StereoParams p = preset("balanced");
+  p.num_disparities = 32;
+  MatcherOptions options;
+  options.threads = 2;
+  options.adapt_threads = false;
+  Matcher a(203, 97, p, Backend::Cpu, options), b(203, 97, p, Backend::Cpu, options);
+  if (a.threads() < 2) GTEST_SKIP() << "one hardware thread";
+  EXPECT_FALSE(a.single_threaded());
+  for (int frame = 0; frame < 8; ++frame) {
+    a.set_single_threaded(frame >= 3 && frame < 6);
+    EXPECT_EQ(a.single_threaded(), frame >= 3 && frame < 6);
+    a.compute(pair.left_view(), pair.right_view());
+    b.compute(pair.left_view(), pair.right_view());
+    ASSERT_EQ(describe_difference(pixels(a.disparity_q4()), pixels(b.disparity_q4()), 203), "") << frame;
+    EXPECT_EQ(a.frames_alone(), std::clamp(frame - 2, 0, 3)) << frame;
+  }
+  EXPECT_EQ(b.frames_alone(), 0);
 }
 
 // Band SGM's memory at 1280 x 720 against balanced's (box sums at its two finer levels, band SGM

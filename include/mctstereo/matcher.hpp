@@ -153,8 +153,16 @@ class Matcher {
   /// the system could not start them all (a memory limit).
   int threads() const;
   /// Frames so far that a matcher of several threads ran on the caller's thread alone
-  /// (MatcherOptions::adapt_threads: its trials, and frames where one thread was the faster way).
+  /// (MatcherOptions::adapt_threads: its trials, and frames where one thread was the faster way;
+  /// and the frames of set_single_threaded(true)).
   long frames_alone() const;
+  /// true: the next frames run on the caller's thread alone, whatever MatcherOptions say, until
+  /// set_single_threaded(false). For a pipeline whose bottleneck is elsewhere (a video encoder, a
+  /// writer): a frame that would wait for it anyway gains nothing from the matcher's threads, and
+  /// they take CPU from it. The maps are the same either way; no effect on one thread, reference
+  /// or opencl. These frames do not enter adapt_threads' frame times.
+  void set_single_threaded(bool single);
+  bool single_threaded() const;
   /// SIMD target chosen at run time ("AVX3", "AVX2", "NEON", ... ; "scalar" for reference; for
   /// opencl, the host's, used by speckle removal).
   std::string simd_target() const;

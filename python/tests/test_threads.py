@@ -103,3 +103,19 @@ def test_adapting_the_threads_keeps_the_maps(tsukuba):
     if adapting.threads > 1:  # a machine of one core gives a matcher of one thread
         assert adapting.frames_alone >= 2
     assert fixed.frames_alone == 0
+
+
+def test_single_threaded_frames_keep_the_maps(tsukuba):
+    # single_threaded=True runs the next frames on the calling thread alone (frames_alone counts
+    # them, adapt_threads off counts nothing else) with the maps of all the threads.
+    left, right = tsukuba
+    params = mctstereo.preset("balanced", num_disparities=32)
+    a = mctstereo.Matcher(384, 288, params, threads=2, adapt_threads=False)
+    b = mctstereo.Matcher(384, 288, params, threads=2, adapt_threads=False)
+    assert a.single_threaded is False
+    for frame in range(6):
+        a.single_threaded = 2 <= frame < 4
+        assert a.single_threaded == (2 <= frame < 4)
+        np.testing.assert_array_equal(a.compute(left, right), b.compute(left, right))
+    assert a.frames_alone == (2 if a.threads > 1 else 0)
+    assert b.frames_alone == 0
