@@ -50,6 +50,8 @@ struct StageTable {
   decltype(&detail::reference::remove_speckles) remove_speckles;
   decltype(&detail::reference::speckle_label_width) speckle_label_width;
   decltype(&detail::reference::fill_invalid) fill_invalid;
+  decltype(&detail::reference::refine_left_map) refine_left_map;
+  decltype(&detail::reference::refine_left_map_scratch_bytes) refine_left_map_scratch_bytes;
   decltype(&detail::reference::upscale) upscale;
   decltype(&detail::reference::sgm_costs) sgm_costs;
   decltype(&detail::reference::sgm_aggregate) sgm_aggregate;
@@ -64,7 +66,8 @@ struct StageTable {
   StageTable {                                                                                   \
     &ns::to_gray, &ns::pyramid_down, &ns::census_transform, &ns::census_match,                   \
         &ns::census_match_scratch_bytes, &ns::median_filter, &ns::lr_check, &ns::remove_speckles, \
-        &ns::speckle_label_width, &ns::fill_invalid, &ns::upscale, &ns::sgm_costs,                \
+        &ns::speckle_label_width, &ns::fill_invalid, &ns::refine_left_map,                        \
+        &ns::refine_left_map_scratch_bytes, &ns::upscale, &ns::sgm_costs,                         \
         &ns::sgm_aggregate, &ns::sgm_scratch_bytes, &ns::sgm_select, &ns::confidence,             \
         &ns::split_channels, &ns::weighted_median                                                 \
   }
@@ -77,6 +80,15 @@ const StageTable kCpuStages = MCTSTEREO_STAGE_TABLE(detail::cpu);
 // of a box level strip by strip in its scratch and needs none.
 bool whole_code_planes(const detail::LevelSpec& level, Backend backend) {
   return level.is_sgm || backend == Backend::Reference;
+}
+
+// Whether refine() runs the finest level's stages in one, refine_left_map(): the left map alone
+// is kept (no right map asked for, none kept for the temporal prior) and nothing between the LR
+// check and the end needs whole maps (speckle removal, the confidence, the weighted median), and
+// every level matches with box sums (the stage borrows their scratch; band SGM makes the confidence).
+bool refines_left_map_at_once(const StereoParams& p, const MatcherOptions& o) {
+  return p.lr_check && !o.compute_right && !o.compute_confidence && !p.sgm() && !p.temporal &&
+         p.speckle_size <= 1 && !p.weighted_median;
 }
 
 // Row states of band SGM on the cpu backend with `threads` threads: the checkpoints of levels in
@@ -273,9 +285,9 @@ struct Matcher::Impl {
     if (plan.box_range > 0) {
       const int max_shd = std::max(p.shd_window, p.coarse_shd_window);
       match_scratch.threads = threads;
-      match_scratch.bytes_per_thread =
-          (stages->census_match_scratch_bytes(levels[0].width, plan.box_range, max_shd, plan.census_words) + 63) /
-          64 * 64;
+      std::size_t bytes = stages->census_match_scratch_bytes(levels[0].width, plan.box_range, max_shd, plan.census_words);
+      if (refines_left_map_at_once(p, o)) bytes = std::max(bytes, stages->refine_left_map_scratch_bytes(levels[0].width));
+      match_scratch.bytes_per_thread = (bytes + 63) / 64 * 64;
       match_scratch.data = detail::allocate_aligned<std::uint8_t>(match_scratch.bytes_per_thread * threads);
     }
     if (p.speckle_size > 0) {
@@ -363,6 +375,13 @@ struct Matcher::Impl {
   // Refines the maps of one level. At the finest level the right map only serves the left map's
   // LR check, so unless the caller asked for it, its refinement stops there.
   void refine(Level& L, bool finest) {
+    if (finest && refines_left_map_at_once(params, options)) {
+      const detail::LeftMapRefinement config{params.median_size, 16 * params.lr_threshold, params.fill,
+                                             params.post_median_size};
+      stages->refine_left_map(L.disparity[0], L.disparity[1], config, match_scratch, L.scratch[1], L.scratch[0]);
+      std::swap(L.disparity[0], L.scratch[0]);
+      return;
+    }
     const int views = need_right ? 2 : 1;
     const int kept = finest && !options.compute_right ? 1 : views;
     if (params.median_size > 0) {
@@ -842,7 +861,9 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   const int threads = options.threads > 0 ? options.threads : default_threads();
   if (plan.box_range > 0) {
     const int max_shd = std::max(params.shd_window, params.coarse_shd_window);
-    total += threads * ((detail::cpu::census_match_scratch_bytes(w0, plan.box_range, max_shd, words) + 63) / 64 * 64);
+    std::size_t bytes = detail::cpu::census_match_scratch_bytes(w0, plan.box_range, max_shd, words);
+    if (refines_left_map_at_once(params, options)) bytes = std::max(bytes, detail::cpu::refine_left_map_scratch_bytes(w0));
+    total += threads * ((bytes + 63) / 64 * 64);
   }
   if (params.speckle_size > 0)
     total += Plane<std::int32_t>::bytes_for(detail::cpu::speckle_label_width(w0), h0) +

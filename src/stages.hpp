@@ -202,6 +202,16 @@ struct CensusMatchJob {
   CensusCodes* codes = nullptr;
 };
 
+/// The finest level's refinement of the left map from the raw maps of both views
+/// (refine_left_map), where no stage after the LR check needs whole maps: median (both views),
+/// LR check (left against right), fill, median after filling.
+struct LeftMapRefinement {
+  int median_size = 0;       ///< 0 (off), 3 or 5
+  int threshold_q4 = 16;     ///< the LR check's largest difference, Q4
+  FillMode fill = FillMode::NearestLower;
+  int post_median_size = 0;  ///< 0 (off), 3 or 5
+};
+
 /// Band SGM (docs/PIPELINE.md, "Band SGM"): the candidates, costs and path sums of one level,
 /// for the left view as reference (the right view's map comes from the same sums).
 ///
@@ -532,6 +542,16 @@ inline int level_dmax(const StereoParams& p, int level, int l) {
   int speckle_label_width(int width);                                                            \
   /* Fills invalid pixels along their row. */                                                     \
   void fill_invalid(Plane<std::int16_t>& disparity, FillMode mode);                               \
+  /* out = post-median(fill(lr_check(median(left), median(right), dir -1))), each step exactly  */ \
+  /* as its own stage (a median of size 0 is skipped). left and right (the raw maps) may be      */ \
+  /* overwritten; spare is a plane of their size; out is none of the three. The cpu backend runs */ \
+  /* it strip by strip in `scratch` (refine_left_map_scratch_bytes() per thread), while each     */ \
+  /* strip's rows are in the cache.                                                              */ \
+  void refine_left_map(Plane<std::int16_t>& left, Plane<std::int16_t>& right,                    \
+                       const LeftMapRefinement& config, MatchScratch& scratch,                   \
+                       Plane<std::int16_t>& spare, Plane<std::int16_t>& out);                    \
+  /* Scratch bytes one thread of refine_left_map() needs for maps `width` wide.                 */ \
+  std::size_t refine_left_map_scratch_bytes(int width);                                          \
   /* Replicates each pixel factor x factor and multiplies by factor, clamped to [lo_q4, hi_q4]; */ \
   /* dst may be smaller than factor x src (the excess is cut).                                  */ \
   void upscale(const Plane<std::int16_t>& src, int factor, int lo_q4, int hi_q4,                  \

@@ -6,7 +6,7 @@
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
 
-#include "cpu/vec_slot-inl.h"
+#include "cpu/median_row-inl.h"
 
 #include <algorithm>
 #include <cstdint>
@@ -16,185 +16,18 @@
 #include "cpu/parallel.hpp"
 #include "stages.hpp"
 
-#ifndef MCTSTEREO_CPU_MEDIAN_NETWORKS
-#define MCTSTEREO_CPU_MEDIAN_NETWORKS
-namespace mctstereo::detail::cpu {
-
-// One comparator of a selection network: afterwards wire a holds the smaller and wire b the
-// larger of the two values. When only one of the two results is used later, only that one is
-// computed (kMin keeps a, kMax keeps b).
-enum CmpKind : std::uint8_t { kSort, kMin, kMax };
-struct Cmp {
-  std::uint8_t a, b;
-  CmpKind kind;
-};
-
-// Optimal 5-sorter (9 comparators), applied to each column of the 5x5 window.
-inline constexpr Cmp kSort5[] = {{0, 1, kSort}, {2, 3, kSort}, {0, 2, kSort}, {1, 3, kSort}, {1, 2, kSort},
-                                 {0, 4, kSort}, {2, 4, kSort}, {1, 2, kSort}, {3, 4, kSort}};
-
-// Median of 25 values whose five columns are already sorted. Wire 5 i + j is rank i of column j.
-// Construction: sorting the five rank rows keeps the columns sorted, so value (i, j) then has at
-// least (i + 1)(j + 1) values <= it and (5 - i)(5 - j) values >= it. Only 13 positions can hold
-// the 13th smallest; 6 values lie surely below them, so the median is the 7th of those 13, taken
-// by an odd-even merge sorter. Comparators that never swap on column-sorted input were removed
-// and those whose results are never read were pruned; the network was checked on all 6^5
-// column-sorted 0/1 inputs, which by the 0-1 principle covers every input. Result: wire 21.
-inline constexpr Cmp kMedianOfSortedColumns25[] = {
-    {0, 1, kSort},   {2, 3, kSort},   {0, 2, kSort},   {1, 3, kSort},   {1, 2, kMax},    {0, 4, kMax},
-    {2, 4, kMax},    {3, 4, kSort},   {5, 6, kSort},   {7, 8, kSort},   {5, 7, kSort},   {6, 8, kSort},
-    {6, 7, kSort},   {5, 9, kMax},    {7, 9, kSort},   {6, 7, kMax},    {8, 9, kSort},   {10, 11, kSort},
-    {12, 13, kSort}, {10, 12, kSort}, {11, 13, kSort}, {11, 12, kSort}, {10, 14, kMax},  {12, 14, kSort},
-    {11, 12, kSort}, {13, 14, kMin},  {15, 16, kSort}, {17, 18, kSort}, {15, 17, kSort}, {16, 18, kMin},
-    {16, 17, kSort}, {15, 19, kSort}, {17, 19, kMin},  {16, 17, kSort}, {20, 21, kSort}, {22, 23, kSort},
-    {20, 22, kSort}, {21, 23, kMin},  {21, 22, kSort}, {20, 24, kSort}, {22, 24, kMin},  {21, 22, kMin},
-    {11, 3, kSort},  {7, 15, kSort},  {20, 13, kSort}, {21, 4, kSort},  {16, 12, kSort}, {11, 7, kMax},
-    {3, 15, kSort},  {20, 21, kSort}, {13, 4, kMin},   {8, 16, kSort},  {9, 12, kMin},   {3, 7, kMax},
-    {13, 21, kSort}, {9, 16, kSort},  {7, 20, kMax},   {15, 13, kSort}, {16, 17, kMin},  {15, 20, kSort},
-    {13, 21, kSort}, {20, 8, kMax},   {13, 9, kMin},   {21, 16, kMin},  {15, 13, kMax},  {21, 8, kMin},
-    {13, 21, kMax}};
-inline constexpr int kMedian25Result = 21;
-
-}  // namespace mctstereo::detail::cpu
-#endif  // MCTSTEREO_CPU_MEDIAN_NETWORKS
-
 HWY_BEFORE_NAMESPACE();
 namespace mctstereo::detail::cpu::HWY_NAMESPACE {
-namespace hn = hwy::HWY_NAMESPACE;
-
-using D16 = hn::ScalableTag<std::int16_t>;
-using V16 = hn::Vec<D16>;
-
-// The comparator's fields are template arguments one by one (not a reference to the array
-// element, which Clang 14 does not take as a template argument).
-template <int a, int b, CmpKind kind>
-HWY_INLINE void Apply(VecSlot<D16>* v) {
-  if constexpr (kind == kSort) {
-    const V16 lo = hn::Min(v[a], v[b]);
-    v[b] = hn::Max(v[a], v[b]);
-    v[a] = lo;
-  } else if constexpr (kind == kMin) {
-    v[a] = hn::Min(v[a], v[b]);
-  } else {
-    v[b] = hn::Max(v[a], v[b]);
-  }
-}
-
-// Expands a network into straight-line code: every wire index is a constant, so the compiler
-// keeps all wires in registers.
-template <const auto& kNet, std::size_t... I>
-HWY_INLINE void ApplyNetwork(VecSlot<D16>* v, std::index_sequence<I...>) {
-  (Apply<kNet[I].a, kNet[I].b, kNet[I].kind>(v), ...);
-}
-template <const auto& kNet>
-HWY_INLINE void ApplyNetwork(VecSlot<D16>* v) {
-  ApplyNetwork<kNet>(v, std::make_index_sequence<std::size(kNet)>());
-}
-
-// Median of each lane's 3x3 window. win[j] points at the window's row j, column 0 of lane 0.
-// Sorting the three columns (lo <= mid <= hi) gives the classic exact shortcut:
-// median = med3(max of the lows, med3 of the mids, min of the highs).
-HWY_INLINE V16 Median3x3(const std::int16_t* const* win) {
-  const D16 d;
-  VecSlot<D16> lo[3], mid[3], hi[3];
-  for (int i = 0; i < 3; ++i) {
-    V16 a = hn::LoadU(d, win[0] + i), b = hn::LoadU(d, win[1] + i), c = hn::LoadU(d, win[2] + i);
-    const V16 ab = hn::Min(a, b);
-    b = hn::Max(a, b);
-    lo[i] = hn::Min(ab, c);
-    const V16 t = hn::Max(ab, c);
-    mid[i] = hn::Min(b, t);
-    hi[i] = hn::Max(b, t);
-  }
-  const auto med3 = [](V16 a, V16 b, V16 c) { return hn::Max(hn::Min(a, b), hn::Min(hn::Max(a, b), c)); };
-  const V16 max_lo = hn::Max(hn::Max(lo[0], lo[1]), lo[2]);
-  const V16 min_hi = hn::Min(hn::Min(hi[0], hi[1]), hi[2]);
-  return med3(max_lo, med3(mid[0], mid[1], mid[2]), min_hi);
-}
-
-// Median of each lane's 5x5 window: sort the five columns, then the network above.
-HWY_INLINE V16 Median5x5(const std::int16_t* const* win) {
-  const D16 d;
-  VecSlot<D16> v[25];
-  for (int j = 0; j < 5; ++j) {
-    VecSlot<D16> col[5];
-    for (int i = 0; i < 5; ++i) col[i] = hn::LoadU(d, win[i] + j);
-    ApplyNetwork<kSort5>(col);
-    for (int i = 0; i < 5; ++i) v[5 * i + j] = col[i];
-  }
-  ApplyNetwork<kMedianOfSortedColumns25>(v);
-  return v[kMedian25Result];
-}
-
-// The window rows of a vector of outputs at x0 that touches a border, copied with clamped columns
-// into border[j] (n + 2 R entries). Where the row is at least n + R wide the window leaves it on
-// one side only (x0 = 0, or x0 = w - n): one copy of n + R entries, a constant size on
-// fixed-width targets, and R repeated edge values. The general loop with a clamped index per
-// entry made a border vector cost several interior ones (about half of the 3x3 median's time at
-// 640 x 480).
-template <int K>
-HWY_INLINE void BorderWindow(const std::int16_t* const* rows, int w, int x0, int n, std::int16_t (*border)[hn::MaxLanes(D16()) + 2 * (K / 2)]) {
-  constexpr int R = K / 2;
-  if (w >= n + R && (x0 == 0 || x0 == w - n)) {
-    for (int j = 0; j < K; ++j) {
-      if (x0 == 0) {
-        std::memcpy(border[j] + R, rows[j], sizeof(std::int16_t) * (n + R));
-        for (int i = 0; i < R; ++i) border[j][i] = rows[j][0];
-      } else {
-        std::memcpy(border[j], rows[j] + x0 - R, sizeof(std::int16_t) * (n + R));
-        for (int i = n + R; i < n + 2 * R; ++i) border[j][i] = rows[j][w - 1];
-      }
-    }
-    return;
-  }
-  for (int j = 0; j < K; ++j) copy_clamped(rows[j], w, x0 - R, n + 2 * R, border[j]);
-}
-
-// One output row: the interior vectors read the rows in place, in a loop of their own; the
-// vectors at the borders (or every vector of a narrow image) read a copy of their window. The
-// last vector overlaps the one before rather than running past the row (its overlapped pixels
-// get the same medians again); a row narrower than a vector goes through a stack buffer.
-template <int K>
-void MedianRow(const Plane<std::int16_t>& src, int y, Plane<std::int16_t>& dst) {
-  constexpr int R = K / 2;
-  const D16 d;
-  const int w = src.width(), h = src.height();
-  const int n = static_cast<int>(hn::Lanes(d));
-  constexpr std::size_t kMaxLanes = hn::MaxLanes(D16());
-  const std::int16_t* rows[K];
-  for (int j = 0; j < K; ++j) rows[j] = src.row(clamp_index(y + j - R, h));
-  std::int16_t* out = dst.row(y);
-  const auto median = [](const std::int16_t* const* win) { return K == 3 ? Median3x3(win) : Median5x5(win); };
-  const int first = (R + n - 1) / n * n;  // the first vector x0 >= R
-  int x0 = first;
-  for (; x0 + n + R <= w; x0 += n) {
-    const std::int16_t* win[K];
-    for (int j = 0; j < K; ++j) win[j] = rows[j] + x0 - R;
-    hn::StoreU(median(win), d, out + x0);
-  }
-  HWY_ALIGN std::int16_t border[K][kMaxLanes + 2 * R];
-  const std::int16_t* win[K];
-  for (int j = 0; j < K; ++j) win[j] = border[j];
-  const auto border_vector = [&](int x) {
-    if (w >= n) {
-      const int bx = std::min(x, w - n);
-      BorderWindow<K>(rows, w, bx, n, border);
-      hn::StoreU(median(win), d, out + bx);
-    } else {
-      HWY_ALIGN std::int16_t tail[kMaxLanes];
-      BorderWindow<K>(rows, w, 0, n, border);
-      hn::Store(median(win), d, tail);
-      std::memcpy(out, tail, sizeof(std::int16_t) * w);
-    }
-  };
-  for (int x = 0; x < std::min(first, w); x += n) border_vector(x);
-  for (; x0 < w; x0 += n) border_vector(x0);
-}
 
 template <int K>
 void MedianRows(const Plane<std::int16_t>& src, Plane<std::int16_t>& dst) {
   parallel_lines(src.height(), [&](int y0, int y1) {
-    for (int y = y0; y < y1; ++y) MedianRow<K>(src, y, dst);
+    const int w = src.width(), h = src.height();
+    for (int y = y0; y < y1; ++y) {
+      const std::int16_t* rows[K];
+      for (int j = 0; j < K; ++j) rows[j] = src.row(clamp_index(y + j - K / 2, h));
+      MedianRow<K>(rows, w, dst.row(y));
+    }
   });
 }
 

@@ -12,6 +12,8 @@ namespace mctstereo::test {
 namespace {
 
 using detail::kInvalid;
+using detail::LeftMapRefinement;
+using detail::MatchScratch;
 using detail::SpeckleScratch;
 namespace reference = detail::reference;
 namespace cpu = detail::cpu;
@@ -330,6 +332,97 @@ TEST(RefineCpu, RemoveSpecklesWithUnusualThresholds) {
       EXPECT_EQ(first_difference(expected, actual), "") << "max_diff " << max_diff << " size " << max_size;
     }
   }
+}
+
+// refine_left_map: the stages one by one on whole maps (written here, apart from both backends).
+Plane<std::int16_t> refined_left_by_stages(const Plane<std::int16_t>& left, const Plane<std::int16_t>& right,
+                                           const LeftMapRefinement& c) {
+  const int w = left.width(), h = left.height();
+  Plane<std::int16_t> l = copy_of(left), r = copy_of(right), checked(w, h), out(w, h);
+  if (c.median_size > 0) {
+    reference::median_filter(left, c.median_size, l);
+    reference::median_filter(right, c.median_size, r);
+  }
+  reference::lr_check(l, r, -1, c.threshold_q4, checked);
+  reference::fill_invalid(checked, c.fill);
+  if (c.post_median_size == 0) return checked;
+  reference::median_filter(checked, c.post_median_size, out);
+  return out;
+}
+
+// Sizes around the strips of 16 rows and their halos (1 or 2 rows), and the awkward ones.
+std::vector<std::pair<int, int>> refine_left_map_sizes() {
+  auto sizes = awkward_sizes();
+  sizes.insert(sizes.end(), {{50, 15}, {50, 16}, {50, 17}, {40, 18}, {40, 31}, {37, 32}, {37, 33}, {300, 34}});
+  return sizes;
+}
+
+const LeftMapRefinement kLeftMapRefinements[] = {
+    {3, 16, FillMode::NearestLower, 3},  // realtime's
+    {0, 16, FillMode::NearestLower, 3}, {5, 0, FillMode::Nearest, 5}, {3, 32, FillMode::None, 0},
+    {0, 16, FillMode::NearestLower, 0}, {5, 16, FillMode::NearestLower, 3}, {3, 16, FillMode::Nearest, 5},
+    {0, 48, FillMode::None, 5}};
+
+std::string describe(const LeftMapRefinement& c) {
+  return "median " + std::to_string(c.median_size) + " threshold " + std::to_string(c.threshold_q4) + " fill " +
+         std::to_string(static_cast<int>(c.fill)) + " post " + std::to_string(c.post_median_size);
+}
+
+// The reference's refine_left_map is the stages in order, whatever its planes hold before, for
+// every combination of medians (each path through its planes).
+TEST(RefineReference, RefineLeftMapIsTheStagesInOrder) {
+  std::uint32_t seed = 1300;
+  for (const auto& [w, h] : refine_left_map_sizes()) {
+    const auto left = smooth_disparity(w, h, ++seed, 16 * 3, 13, 9);
+    const auto right = smooth_disparity(w, h, ++seed, 16 * 3, 13, 9);
+    for (const LeftMapRefinement& c : kLeftMapRefinements) {
+      const auto expected = refined_left_by_stages(left, right, c);
+      Plane<std::int16_t> l = copy_of(left), r = copy_of(right), spare = random_disparity(w, h, 1, 0, 9),
+                          out = random_disparity(w, h, 2, 0, 9);
+      MatchScratch none;
+      reference::refine_left_map(l, r, c, none, spare, out);
+      ASSERT_EQ(first_difference(expected, out), "") << w << "x" << h << " " << describe(c);
+    }
+  }
+}
+
+TEST(RefineCpu, RefineLeftMapMatchesTheStages) {
+  std::uint32_t seed = 1400;
+  for (const auto& [w, h] : refine_left_map_sizes()) {
+    // Maps that agree often (the same shape) and random ones that seldom do, with invalid pixels.
+    std::vector<std::pair<Plane<std::int16_t>, Plane<std::int16_t>>> pairs;
+    pairs.emplace_back(smooth_disparity(w, h, ++seed, 16 * 3, 13, 9), smooth_disparity(w, h, ++seed, 16 * 3, 13, 9));
+    pairs.emplace_back(smooth_disparity(w, h, ++seed, 16 * 20, 7, 9), smooth_disparity(w, h, ++seed, 16 * 20, 7, 9));
+    pairs.emplace_back(random_disparity(w, h, ++seed, 0, 40, 0.3), random_disparity(w, h, ++seed, 0, 40, 0.3));
+    for (const auto& [left, right] : pairs) {
+      for (const LeftMapRefinement& c : kLeftMapRefinements) {
+        const auto expected = refined_left_by_stages(left, right, c);
+        // Slices of an odd size: the stage aligns each thread's slice itself.
+        MatchScratch scratch = thread_scratch<MatchScratch>(cpu::refine_left_map_scratch_bytes(w) + 8, 2);
+        for_each_target_and_threads([&](const std::string& where) {
+          Plane<std::int16_t> l = copy_of(left), r = copy_of(right), spare(w, h), out(w, h);
+          cpu::refine_left_map(l, r, c, scratch, spare, out);
+          ASSERT_EQ(first_difference(expected, out), "") << w << "x" << h << " " << describe(c) << " on " << where;
+        });
+      }
+    }
+  }
+}
+
+TEST(RefineCpu, RefineLeftMapChecksAndFills) {
+  // Guards the comparison above against a degenerate case: the check rejects a share of the
+  // pixels of realtime's configuration, and the fill leaves none invalid.
+  const auto left = smooth_disparity(631, 479, 31, 16 * 3, 13, 9);
+  const auto right = smooth_disparity(631, 479, 32, 16 * 3, 13, 9);
+  const LeftMapRefinement c = kLeftMapRefinements[0];
+  Plane<std::int16_t> checked(631, 479), l = copy_of(left), r = copy_of(right), spare(631, 479), out(631, 479);
+  reference::lr_check(left, right, -1, c.threshold_q4, checked);
+  const int rejected = count_invalid(checked);
+  EXPECT_GT(rejected, 631 * 479 / 10);
+  EXPECT_LT(rejected, 631 * 479 * 9 / 10);
+  MatchScratch scratch = thread_scratch<MatchScratch>(cpu::refine_left_map_scratch_bytes(631), 2);
+  cpu::refine_left_map(l, r, c, scratch, spare, out);
+  EXPECT_EQ(count_invalid(out), 0);
 }
 
 TEST(RefineCpu, FillInvalidMatchesReference) {

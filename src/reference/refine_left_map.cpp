@@ -1,0 +1,34 @@
+#include <algorithm>
+
+#include "stages.hpp"
+
+namespace mctstereo::detail::reference {
+
+// The stages one after the other on whole maps, as the driver runs them elsewhere.
+void refine_left_map(Plane<std::int16_t>& left, Plane<std::int16_t>& right, const LeftMapRefinement& config,
+                     MatchScratch& /*scratch*/, Plane<std::int16_t>& spare, Plane<std::int16_t>& out) {
+  // The checked map goes where neither of its inputs is: out after medians into out and spare,
+  // left (no longer read) after them; then the post-median (or a copy) brings it to out.
+  Plane<std::int16_t>* checked = &out;
+  if (config.median_size > 0) {
+    median_filter(left, config.median_size, out);
+    median_filter(right, config.median_size, spare);
+    lr_check(out, spare, -1, config.threshold_q4, left);
+    checked = &left;
+  } else {
+    lr_check(left, right, -1, config.threshold_q4, out);
+  }
+  fill_invalid(*checked, config.fill);
+  if (config.post_median_size > 0) {
+    Plane<std::int16_t>& dst = checked == &out ? spare : out;
+    median_filter(*checked, config.post_median_size, dst);
+    if (&dst == &out) return;
+    checked = &dst;
+  }
+  if (checked == &out) return;
+  for (int y = 0; y < out.height(); ++y) std::copy_n(checked->row(y), out.width(), out.row(y));
+}
+
+std::size_t refine_left_map_scratch_bytes(int /*width*/) { return 0; }
+
+}  // namespace mctstereo::detail::reference
