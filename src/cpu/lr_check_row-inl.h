@@ -89,27 +89,55 @@ HWY_INLINE void LrCheckRow(const std::int16_t* s, const std::int16_t* o, int w, 
       hn::StoreU(invalid, d, out + x);
       continue;
     }
-    const int kmin = hn::GetLane(hn::MinOfLanes(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MAX))));
-    const int kmax = hn::GetLane(hn::MaxOfLanes(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MIN))));
-    // Lane i of the load for k reads o[x + i + dir k]: from x + dir k, n lanes.
-    const int first = dir < 0 ? x - kmax : x + kmin;
-    const int last = (dir < 0 ? x - kmin : x + kmax) + n;  // one past the last value read
-    const bool before_row = first < 0;
-    if (kmax - kmin >= kMaxSpan || last > w + slack ||
-        (before_row && (first < -kFront || last > kExtColumns))) {
-      LrCheckScalar(s, o, w, x, x + n, dir, threshold_q4, out);
-      continue;
-    }
-    const std::int16_t* base = o;
-    if (before_row) {
+    // Lane i's partner o[x + i + dir k_i]; starts before column 0 read a copy of the row's start
+    // behind kFront invalid entries.
+    const auto row_start = [&] {
       if (!ext_filled) std::copy_n(o, ext_columns, ext + kFront);
       ext_filled = true;
-      base = ext + kFront;
-    }
+      return static_cast<const std::int16_t*>(ext + kFront);
+    };
     auto u = invalid;
-    for (int kk = kmin; kk <= kmax; ++kk) {
-      const auto shifted = hn::LoadU(d, base + x + dir * kk);
-      u = hn::IfThenElse(hn::Eq(k, hn::Set(d, static_cast<std::int16_t>(kk))), shifted, u);
+    bool have_partners = false;
+#if HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+    {
+      // One two-table permute (VPERMT2W) fetches every lane's partner from the 64 entries of the
+      // other row that start at the nearest partner, x - kmax (dir -1) or x + kmin (dir +1):
+      // lane i reads entry i + dir (k_i - k_edge), which lies in [0, 63] wherever the vector's
+      // span allows. One reduction instead of two and no loop over the span; vectors with a lane
+      // out of that window take the shifted loads below.
+      const int k_edge = dir < 0 ? hn::GetLane(hn::MaxOfLanes(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MIN))))
+                                 : hn::GetLane(hn::MinOfLanes(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MAX))));
+      const int first = x + dir * k_edge, last = first + 2 * n;  // the entries read
+      const auto edge = hn::Set(d, static_cast<std::int16_t>(k_edge));
+      const auto j = hn::Add(hn::Iota(d, 0), dir < 0 ? hn::Sub(edge, k) : hn::Sub(k, edge));
+      const bool in_window = hn::AllFalse(d, hn::And(valid, hn::Gt(j, hn::Set(d, 2 * n - 1))));
+      // Reads stay in the row and its slack, or in ext (whose used entries, first + j < 64, lie
+      // in the copied columns: first < 0 there).
+      if (in_window && last <= w + slack && (first >= 0 || (first >= -kFront && last <= kExtColumns + 32))) {
+        const std::int16_t* table = first >= 0 ? o + first : row_start() + first;
+        const auto lo = hn::LoadU(d, table), hi = hn::LoadU(d, table + n);
+        u = decltype(u){_mm512_permutex2var_epi16(lo.raw, j.raw, hi.raw)};
+        have_partners = true;
+      }
+    }
+#endif
+    if (!have_partners) {
+      const int kmin = hn::GetLane(hn::MinOfLanes(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MAX))));
+      const int kmax = hn::GetLane(hn::MaxOfLanes(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MIN))));
+      // Lane i of the load for k reads o[x + i + dir k]: from x + dir k, n lanes.
+      const int first = dir < 0 ? x - kmax : x + kmin;
+      const int last = (dir < 0 ? x - kmin : x + kmax) + n;  // one past the last value read
+      const bool before_row = first < 0;
+      if (kmax - kmin >= kMaxSpan || last > w + slack ||
+          (before_row && (first < -kFront || last > kExtColumns))) {
+        LrCheckScalar(s, o, w, x, x + n, dir, threshold_q4, out);
+        continue;
+      }
+      const std::int16_t* base = before_row ? row_start() : o;
+      for (int kk = kmin; kk <= kmax; ++kk) {
+        const auto shifted = hn::LoadU(d, base + x + dir * kk);
+        u = hn::IfThenElse(hn::Eq(k, hn::Set(d, static_cast<std::int16_t>(kk))), shifted, u);
+      }
     }
     // The partner must lie in the image: 0 <= x + i + dir k < w. Partners before column 0
     // read kInvalid from ext's front and fail below; the loads may reach into the slack
