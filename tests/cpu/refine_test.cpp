@@ -447,5 +447,39 @@ TEST(RefineCpu, FillInvalidMatchesReference) {
   }
 }
 
+// Rows wider than the AVX-512 fill's blocks of 1024 columns (runs that cross them, values carried
+// over many all-invalid vectors), and the values next to INT16_MAX, which that fill takes for
+// "no value" and leaves to the run-by-run path.
+TEST(RefineCpu, FillInvalidMatchesReferenceOnWideRowsAndExtremeValues) {
+  std::uint32_t seed = 1500;
+  for (const auto& [w, h] : std::vector<std::pair<int, int>>{{1023, 3}, {1024, 3}, {1025, 3}, {2049, 2}, {3000, 2}}) {
+    for (double invalid : {0.1, 0.85, 0.99}) {
+      auto map = random_disparity(w, h, ++seed, -400, 600, invalid);
+      // Row 0: two valid pixels, far apart across a block boundary.
+      for (int x = 0; x < w; ++x) map.at(x, 0) = x == 5 ? 77 : x == w - 20 ? -33 : kInvalid;
+      for (FillMode mode : {FillMode::Nearest, FillMode::NearestLower}) {
+        Plane<std::int16_t> expected = copy_of(map);
+        reference::fill_invalid(expected, mode);
+        for_each_target_and_threads([&](const std::string& where) {
+          Plane<std::int16_t> actual = copy_of(map);
+          cpu::fill_invalid(actual, mode);
+          ASSERT_EQ(first_difference(expected, actual), "") << w << "x" << h << " invalid " << invalid << " on " << where;
+        });
+      }
+    }
+  }
+  for (std::int16_t top : {std::int16_t{INT16_MAX}, std::int16_t{INT16_MAX - 1}}) {
+    auto map = random_disparity(100, 4, 1600, 32700, 32767, 0.5);
+    map.at(3, 1) = top;
+    Plane<std::int16_t> expected = copy_of(map);
+    reference::fill_invalid(expected, FillMode::NearestLower);
+    for_each_target_and_threads([&](const std::string& where) {
+      Plane<std::int16_t> actual = copy_of(map);
+      cpu::fill_invalid(actual, FillMode::NearestLower);
+      ASSERT_EQ(first_difference(expected, actual), "") << "top " << top << " on " << where;
+    });
+  }
+}
+
 }  // namespace
 }  // namespace mctstereo::test
