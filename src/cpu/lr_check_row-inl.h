@@ -28,6 +28,7 @@
 #include <cstdint>
 #include <cstdlib>
 
+#include "cpu/min_lanes-inl.h"
 #include "stages.hpp"
 
 HWY_BEFORE_NAMESPACE();
@@ -105,8 +106,8 @@ HWY_INLINE void LrCheckRow(const std::int16_t* s, const std::int16_t* o, int w, 
       // lane i reads entry i + dir (k_i - k_edge), which lies in [0, 63] wherever the vector's
       // span allows. One reduction instead of two and no loop over the span; vectors with a lane
       // out of that window take the shifted loads below.
-      const int k_edge = dir < 0 ? hn::GetLane(hn::MaxOfLanes(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MIN))))
-                                 : hn::GetLane(hn::MinOfLanes(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MAX))));
+      const int k_edge = dir < 0 ? MaxLaneI16(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MIN)))
+                                 : MinLaneI16(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MAX)));
       const int first = x + dir * k_edge, last = first + 2 * n;  // the entries read
       const auto edge = hn::Set(d, static_cast<std::int16_t>(k_edge));
       const auto j = hn::Add(hn::Iota(d, 0), dir < 0 ? hn::Sub(edge, k) : hn::Sub(k, edge));
@@ -122,8 +123,8 @@ HWY_INLINE void LrCheckRow(const std::int16_t* s, const std::int16_t* o, int w, 
     }
 #endif
     if (!have_partners) {
-      const int kmin = hn::GetLane(hn::MinOfLanes(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MAX))));
-      const int kmax = hn::GetLane(hn::MaxOfLanes(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MIN))));
+      const int kmin = MinLaneI16(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MAX)));
+      const int kmax = MaxLaneI16(d, hn::IfThenElse(valid, k, hn::Set(d, INT16_MIN)));
       // Lane i of the load for k reads o[x + i + dir k]: from x + dir k, n lanes.
       const int first = dir < 0 ? x - kmax : x + kmin;
       const int last = (dir < 0 ? x - kmin : x + kmax) + n;  // one past the last value read

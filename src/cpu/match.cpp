@@ -41,6 +41,7 @@
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 #include <hwy/highway.h>
 
+#include "cpu/min_lanes-inl.h"
 #include "cpu/search_range-inl.h"
 #include "cpu/vec_slot-inl.h"
 
@@ -632,7 +633,7 @@ void MatchTileWith(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t
       acc_f = hn::Min(acc_f, f);
       acc_l = hn::Max(acc_l, l);
     }
-    const int rf = hn::GetLane(hn::MinOfLanes(d16, acc_f)), rl = hn::GetLane(hn::MaxOfLanes(d16, acc_l));
+    const int rf = MinLaneI16(d16, acc_f), rl = MaxLaneI16(d16, acc_l);
     tb.row_f[r] = static_cast<std::int16_t>(rf);
     tb.row_l[r] = static_cast<std::int16_t>(rl);
     umin = std::min(umin, rf);
