@@ -52,6 +52,7 @@ struct StageTable {
   decltype(&detail::reference::fill_invalid) fill_invalid;
   decltype(&detail::reference::refine_left_map) refine_left_map;
   decltype(&detail::reference::refine_left_map_scratch_bytes) refine_left_map_scratch_bytes;
+  decltype(&detail::reference::output_q4) output_q4;
   decltype(&detail::reference::upscale) upscale;
   decltype(&detail::reference::sgm_costs) sgm_costs;
   decltype(&detail::reference::sgm_aggregate) sgm_aggregate;
@@ -67,7 +68,7 @@ struct StageTable {
     &ns::to_gray, &ns::pyramid_down, &ns::census_transform, &ns::census_match,                   \
         &ns::census_match_scratch_bytes, &ns::median_filter, &ns::lr_check, &ns::remove_speckles, \
         &ns::speckle_label_width, &ns::fill_invalid, &ns::refine_left_map,                        \
-        &ns::refine_left_map_scratch_bytes, &ns::upscale, &ns::sgm_costs,                         \
+        &ns::refine_left_map_scratch_bytes, &ns::output_q4, &ns::upscale, &ns::sgm_costs,         \
         &ns::sgm_aggregate, &ns::sgm_scratch_bytes, &ns::sgm_select, &ns::confidence,             \
         &ns::split_channels, &ns::weighted_median                                                 \
   }
@@ -491,17 +492,7 @@ struct Matcher::Impl {
 
   // Internal maps (kInvalid) to the caller's conventions: Q4 with (dmin - 1) * 16, float with NaN.
   void write_outputs(const Plane<std::int16_t>& result, int v) {
-    const std::int16_t invalid = invalid_q4();
-    detail::cpu::parallel_lines(
-        height,
-        [&](int y0, int y1) {
-          for (int y = y0; y < y1; ++y) {
-            const std::int16_t* src = result.row(y);
-            std::int16_t* q4 = out_q4[v].row(y);
-            for (int x = 0; x < width; ++x) q4[x] = src[x] == kInvalid ? invalid : src[x];
-          }
-        },
-        host_threads());
+    stages->output_q4(result, invalid_q4(), out_q4[v]);
     if (v == 0) {
       float_source = &result;
       float_current = false;

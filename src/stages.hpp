@@ -552,6 +552,9 @@ inline int level_dmax(const StereoParams& p, int level, int l) {
                        Plane<std::int16_t>& spare, Plane<std::int16_t>& out);                    \
   /* Scratch bytes one thread of refine_left_map() needs for maps `width` wide.                 */ \
   std::size_t refine_left_map_scratch_bytes(int width);                                          \
+  /* The caller's convention of the Q4 map: dst = src with kInvalid replaced by invalid_q4, over */ \
+  /* dst's size (src at least as large).                                                        */ \
+  void output_q4(const Plane<std::int16_t>& src, std::int16_t invalid_q4, Plane<std::int16_t>& dst); \
   /* Replicates each pixel factor x factor and multiplies by factor, clamped to [lo_q4, hi_q4]; */ \
   /* dst may be smaller than factor x src (the excess is cut).                                  */ \
   void upscale(const Plane<std::int16_t>& src, int factor, int lo_q4, int hi_q4,                  \
