@@ -1,6 +1,4 @@
-// k x k median of a disparity map with min/max selection networks on int16 lanes, one vector of
-// output pixels at a time. Invalid pixels are INT16_MIN, so they enter as the smallest value
-// without any special case, exactly as in the reference.
+// k x k median of a disparity map, row by row (cpu/median_row-inl.h).
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "cpu/median_filter.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
