@@ -17,7 +17,9 @@ TEST(ReferenceOutputQ4, ReplacesOnlyTheInvalidMarker) {
 
 TEST(CpuOutputQ4, EqualsReferenceAtAwkwardSizes) {
   std::uint32_t seed = 40;
-  for (const auto& [w, h] : awkward_sizes()) {
+  for (const auto& w_h : awkward_sizes()) {
+    const auto w = w_h.first;
+    const auto h = w_h.second;
     // A source larger than the destination (an up-scaled map cut to the output size).
     const Plane<std::int16_t> src = random_disparity(w + 3, h + 1, ++seed, -32767, 32767, 0.3);
     for (std::int16_t invalid : {std::int16_t{-16}, std::int16_t{-32768}, std::int16_t{160}}) {

@@ -372,7 +372,9 @@ std::string describe(const LeftMapRefinement& c) {
 // every combination of medians (each path through its planes).
 TEST(RefineReference, RefineLeftMapIsTheStagesInOrder) {
   std::uint32_t seed = 1300;
-  for (const auto& [w, h] : refine_left_map_sizes()) {
+  for (const auto& w_h : refine_left_map_sizes()) {
+    const auto w = w_h.first;
+    const auto h = w_h.second;
     const auto left = smooth_disparity(w, h, ++seed, 16 * 3, 13, 9);
     const auto right = smooth_disparity(w, h, ++seed, 16 * 3, 13, 9);
     for (const LeftMapRefinement& c : kLeftMapRefinements) {
@@ -388,13 +390,23 @@ TEST(RefineReference, RefineLeftMapIsTheStagesInOrder) {
 
 TEST(RefineCpu, RefineLeftMapMatchesTheStages) {
   std::uint32_t seed = 1400;
-  for (const auto& [w, h] : refine_left_map_sizes()) {
+  for (const auto& w_h : refine_left_map_sizes()) {
+    const auto w = w_h.first;
+    const auto h = w_h.second;
     // Maps that agree often (the same shape) and random ones that seldom do, with invalid pixels.
+    const auto pair_of = [&](auto make) {
+      auto left = make(seed + 1);
+      auto right = make(seed + 2);
+      seed += 2;
+      return std::pair{std::move(left), std::move(right)};
+    };
     std::vector<std::pair<Plane<std::int16_t>, Plane<std::int16_t>>> pairs;
-    pairs.emplace_back(smooth_disparity(w, h, ++seed, 16 * 3, 13, 9), smooth_disparity(w, h, ++seed, 16 * 3, 13, 9));
-    pairs.emplace_back(smooth_disparity(w, h, ++seed, 16 * 20, 7, 9), smooth_disparity(w, h, ++seed, 16 * 20, 7, 9));
-    pairs.emplace_back(random_disparity(w, h, ++seed, 0, 40, 0.3), random_disparity(w, h, ++seed, 0, 40, 0.3));
-    for (const auto& [left, right] : pairs) {
+    pairs.push_back(pair_of([&](std::uint32_t s) { return smooth_disparity(w, h, s, 16 * 3, 13, 9); }));
+    pairs.push_back(pair_of([&](std::uint32_t s) { return smooth_disparity(w, h, s, 16 * 20, 7, 9); }));
+    pairs.push_back(pair_of([&](std::uint32_t s) { return random_disparity(w, h, s, 0, 40, 0.3); }));
+    for (const auto& left_right : pairs) {
+      const auto& left = left_right.first;
+      const auto& right = left_right.second;
       for (const LeftMapRefinement& c : kLeftMapRefinements) {
         const auto expected = refined_left_by_stages(left, right, c);
         // Slices of an odd size: the stage aligns each thread's slice itself.
@@ -452,7 +464,9 @@ TEST(RefineCpu, FillInvalidMatchesReference) {
 // "no value" and leaves to the run-by-run path.
 TEST(RefineCpu, FillInvalidMatchesReferenceOnWideRowsAndExtremeValues) {
   std::uint32_t seed = 1500;
-  for (const auto& [w, h] : std::vector<std::pair<int, int>>{{1023, 3}, {1024, 3}, {1025, 3}, {2049, 2}, {3000, 2}}) {
+  for (const auto& w_h : std::vector<std::pair<int, int>>{{1023, 3}, {1024, 3}, {1025, 3}, {2049, 2}, {3000, 2}}) {
+    const auto w = w_h.first;
+    const auto h = w_h.second;
     for (double invalid : {0.1, 0.85, 0.99}) {
       auto map = random_disparity(w, h, ++seed, -400, 600, invalid);
       // Row 0: two valid pixels, far apart across a block boundary.
