@@ -17,21 +17,10 @@
 HWY_BEFORE_NAMESPACE();
 namespace mctstereo::detail::cpu::HWY_NAMESPACE {
 
-template <int K>
-void MedianRows(const Plane<std::int16_t>& src, Plane<std::int16_t>& dst) {
-  parallel_lines(src.height(), [&](int y0, int y1) {
-    const int w = src.width(), h = src.height();
-    for (int y = y0; y < y1; ++y) {
-      const std::int16_t* rows[K];
-      for (int j = 0; j < K; ++j) rows[j] = src.row(clamp_index(y + j - K / 2, h));
-      MedianRow<K>(rows, w, dst.row(y));
-    }
-  });
-}
-
 void MedianFilter(const Plane<std::int16_t>& src, int k, Plane<std::int16_t>& dst) {
-  if (k == 3) MedianRows<3>(src, dst);
-  else MedianRows<5>(src, dst);
+  parallel_lines(src.height(), [&](int y0, int y1) {
+    for (int y = y0; y < y1; ++y) MedianOfMapRow(src, k, y, dst.row(y));
+  });
 }
 
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE

@@ -239,6 +239,15 @@ HWY_INLINE void MedianRow(const std::int16_t* const* rows, int w, std::int16_t* 
   else Median5Row(rows, w, out);
 }
 
+// Row y of the k x k median of a whole map (k = 3, 5; rows clamped at the borders) into out.
+HWY_INLINE void MedianOfMapRow(const Plane<std::int16_t>& map, int k, int y, std::int16_t* out) {
+  const int h = map.height(), w = map.width();
+  const std::int16_t* rows[5];
+  for (int j = 0; j < k; ++j) rows[j] = map.row(clamp_index(y + j - k / 2, h));
+  if (k == 3) MedianRow<3>(rows, w, out);
+  else MedianRow<5>(rows, w, out);
+}
+
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE
 HWY_AFTER_NAMESPACE();
 

@@ -47,15 +47,6 @@ std::ptrdiff_t row_stride(int width) { return Plane<std::int16_t>::stride_for(wi
 HWY_BEFORE_NAMESPACE();
 namespace mctstereo::detail::cpu::HWY_NAMESPACE {
 
-// One median row of a whole map (image row y, rows clamped at the borders), as median_filter().
-HWY_INLINE void MedianOfMapRow(const Plane<std::int16_t>& map, int k, int y, std::int16_t* out) {
-  const int h = map.height(), w = map.width();
-  const std::int16_t* rows[5];
-  for (int j = 0; j < k; ++j) rows[j] = map.row(clamp_index(y + j - k / 2, h));
-  if (k == 3) MedianRow<3>(rows, w, out);
-  else MedianRow<5>(rows, w, out);
-}
-
 // The filled left row y (median, LR check, fill) into `row`.
 HWY_INLINE void FilledRow(const Plane<std::int16_t>& left, const Plane<std::int16_t>& right,
                           const LeftMapRefinement& config, int y, std::int16_t* median_left,
