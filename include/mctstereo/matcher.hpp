@@ -53,9 +53,10 @@ struct MatcherOptions {
   std::size_t sgm_volume_limit = std::size_t{32} << 20;
   /// The cpu backend with more than one thread: the matcher keeps the recent frame times (the
   /// median of the last 8) on its threads and on the caller's thread alone, runs frames the faster
-  /// way, and tries the other for 3 frames (their median) after 16, then after twice as many each
-  /// time that confirms the choice (at most 256), and sooner (16 frames after the last trial) once
-  /// the way it runs has become slower than the other was when last tried.
+  /// way, and tries the other for 3 frames (their median): after the first 3 frames, 16 frames
+  /// after a trial that changed the way, twice as many after each that confirmed it (at most 256),
+  /// and sooner (16 frames after the last trial) once the way it runs has become slower than the
+  /// other was when last tried.
   /// On a CPU that other processes keep busy the threads wait for each other and one thread can
   /// be faster. The maps are the same either way. false: every frame on all the threads.
   /// frames_alone() counts the frames run alone.

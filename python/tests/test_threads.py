@@ -92,7 +92,7 @@ def test_compute_releases_the_gil(tsukuba):
 
 
 def test_adapting_the_threads_keeps_the_maps(tsukuba):
-    # adapt_threads (the default) runs some frames on one thread (2 of the first 18 at least, the
+    # adapt_threads (the default) runs some frames on one thread (frames 4 to 6 at least, the
     # first trial); adapt_threads=False none. The maps are the same frame after frame.
     left, right = tsukuba
     params = mctstereo.preset("quality", num_disparities=32)

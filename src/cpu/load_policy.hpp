@@ -6,11 +6,13 @@
 // the rest of a scheduler time slice (milliseconds), and a waiting thread spends its own share of
 // the CPU polling. On a CPU that other processes keep busy that happens at stage after stage, and
 // 2 threads ran slower than 1 (bench --load 2). So the matcher keeps the recent frame times of each
-// way, runs its frames the faster way, and tries the other way for a few frames now and then: after
-// 16 frames, and after twice as many each time the trial confirms the choice (at most 256), so
-// that on an idle machine the trials cost little; and as soon as the way it runs has become slower
-// than the other was when last tried (a load that starts), at most every 16 frames. The maps do
-// not depend on it: every stage is bit-exact for any thread count.
+// way, runs its frames the faster way, and tries the other way for a few frames now and then: first
+// after the threads' first 3 frames (a matcher made on a loaded CPU then runs alone from its 7th
+// frame on, not its 20th; on an idle one the early trial costs 3 slower frames once), then 16
+// frames after a trial that changed the way, and twice as many after each trial that confirmed
+// it (at most 256), so that on an idle machine the trials cost little; and as soon as the way it
+// runs has become slower than the other was when last tried (a load that starts), at most every
+// 16 frames. The maps do not depend on it: every stage is bit-exact for any thread count.
 //
 // Each way's time is the median of its last frames, and a trial's the median of its 3 frames: on a
 // loaded CPU a frame that the OS preempts takes several times the others, and a mean of a trial's
@@ -53,8 +55,9 @@ class RecentTimes {
 
 class LoadPolicy {
  public:
-  /// Frames of a trial of the other way, and the first and the longest gap between trials.
-  static constexpr int kTrialFrames = 3, kFirstGap = 16, kLongestGap = 256;
+  /// Frames of a trial of the other way, the frames before the first trial, and the shortest and
+  /// the longest gap between trials.
+  static constexpr int kTrialFrames = 3, kFirstTrial = 3, kFirstGap = 16, kLongestGap = 256;
   /// Frames of the way that runs whose median may call a trial before its gap ends.
   static constexpr int kEarlyFrames = 5;
 
@@ -90,7 +93,7 @@ class LoadPolicy {
  private:
   RecentTimes threads_, alone_;
   bool threads_best_ = true;
-  int gap_ = kFirstGap, until_trial_ = kFirstGap, trial_left_ = 0;
+  int gap_ = kFirstGap, until_trial_ = kFirstTrial, trial_left_ = 0;
 };
 
 }  // namespace mctstereo::detail::cpu

@@ -103,9 +103,9 @@ TEST(LoadPolicy, RunsTheFasterWayAndTriesTheOtherLessOftenWhileItLoses) {
     }
     return alone;
   };
-  // Idle: the threads, with trials alone of 3 frames after 16, 32, 64, 128, 256, 256 ... frames.
+  // Idle: the threads, with trials alone of 3 frames after 3, 32, 64, 128, 256, 256 ... frames.
   EXPECT_TRUE(p.use_threads());
-  EXPECT_EQ(frames(16), 0);
+  EXPECT_EQ(frames(3), 0);
   EXPECT_EQ(frames(3), 3);  // the first trial
   EXPECT_EQ(p.frames_to_trial(), 32);
   EXPECT_EQ(frames(32 + 3 + 64 + 3 + 128 + 3), 9);
@@ -146,7 +146,7 @@ TEST(LoadPolicy, TriesTheOtherWayWhenTheLoadStartsAndIgnoresAPreemptedFrame) {
     return alone;
   };
   // Idle until the gap is the longest: threads 10 ms, alone 15.
-  EXPECT_EQ(run(16 + 3 + 32 + 3 + 64 + 3 + 128 + 3, 10.0, 15.0), 12);
+  EXPECT_EQ(run(3 + 3 + 32 + 3 + 64 + 3 + 128 + 3, 10.0, 15.0), 12);
   EXPECT_EQ(p.frames_to_trial(), LoadPolicy::kLongestGap);
   // The load starts: the threads take 20 ms, alone 12. Their median passes alone's 15 within the
   // 16 frames after the last trial, and the trial comes then.
@@ -163,11 +163,26 @@ TEST(LoadPolicy, TriesTheOtherWayWhenTheLoadStartsAndIgnoresAPreemptedFrame) {
   EXPECT_TRUE(p.use_threads()) << "the median of the trial, 8 ms, wins";
   // Alone, one slow frame among the recent ones does not call a trial either.
   LoadPolicy q;
-  for (int i = 0; i < 16; ++i) q.record(true, 10.0);
+  for (int i = 0; i < 3; ++i) q.record(true, 10.0);
   for (int i = 0; i < 3; ++i) q.record(false, 15.0);  // the first trial: the threads stay
   ASSERT_TRUE(q.use_threads());
   for (int i = 0; i < 20; ++i) q.record(true, i == 17 ? 100.0 : 10.0);
   EXPECT_EQ(q.frames_to_trial(), 32 - 20);
+}
+
+// A matcher made on a loaded CPU: its first 3 frames on the threads, the next 3 alone, and alone
+// from then on, with the threads tried again 16 frames later.
+TEST(LoadPolicy, AMatcherMadeUnderLoadRunsAloneFromItsSeventhFrame) {
+  LoadPolicy p;
+  std::vector<bool> on_threads;
+  for (int i = 0; i < 6 + 16; ++i) {
+    on_threads.push_back(p.use_threads());
+    p.record(on_threads.back(), on_threads.back() ? 20.0 : 12.0);
+  }
+  for (int i = 0; i < 3; ++i) EXPECT_TRUE(on_threads[i]) << "frame " << i;
+  for (int i = 3; i < 6 + 16; ++i) EXPECT_FALSE(on_threads[i]) << "frame " << i;
+  EXPECT_EQ(p.frames_to_trial(), 0);
+  EXPECT_TRUE(p.use_threads()) << "the trial of the threads";
 }
 
 }  // namespace
