@@ -439,6 +439,50 @@ HWY_INLINE V16 MarginOf(const WtaState& st, V16 f, V16 l) {
 #endif
 }
 
+// The Q4 disparities (and margins, where the job wants them) of a tile's pixels from their WTA
+// states (as WtaTile leaves them after the last candidate).
+template <bool kSubpixel, bool kUnique>
+void FinalizeTile(const MatchJob& job, const TileBounds& tb, int x0, int y0, int tw, int th,
+                  const std::int16_t* state) {
+  const D16 d16;
+  const int N16 = static_cast<int>(hn::Lanes(d16));
+  const V16 inf = hn::Set(d16, kInf);
+  const int ratio = job.config->uniqueness_ratio;
+  alignas(64) std::int16_t out[kMaxLanes16];
+  alignas(64) std::int16_t margins[kMaxLanes16];
+  for (int r = 0; r < th; ++r) {
+    std::int16_t* row = job.disparity->row(y0 + r) + x0;
+    for (int x = 0; x < tw; x += N16) {
+      const std::int16_t* sp = state + (r * kTile + x) * kStateWords;
+      WtaState st;
+      st.bc = hn::Load(d16, sp + 0 * N16);
+      st.bd = hn::Load(d16, sp + 1 * N16);
+      st.cm1 = kSubpixel ? hn::Load(d16, sp + 2 * N16) : inf;
+      st.cp1 = kSubpixel ? hn::Load(d16, sp + 3 * N16) : inf;
+      st.sec = kUnique ? hn::Load(d16, sp + 4 * N16) : inf;
+      const V16 f = hn::Load(d16, tb.F[r] + x), l = hn::Load(d16, tb.L[r] + x);
+      const V16 q4 = Finalize<kSubpixel, kUnique>(st, f, l, ratio);
+      if (kUnique && job.margin != nullptr) {
+        hn::Store(MarginOf(st, f, l), d16, margins);
+        std::uint8_t* m = job.margin->row(y0 + r) + x0 + x;
+        for (int i = 0; i < std::min(N16, tw - x); ++i) m[i] = static_cast<std::uint8_t>(margins[i]);
+      }
+      // The pixels past tw belong to the next tile, which another thread may be writing: only the
+      // tile's own pixels are stored, by a masked store where the target has a true one.
+      if (x + N16 <= tw) {
+        hn::StoreU(q4, d16, row + x);
+      } else {
+#if HWY_TARGET <= HWY_AVX3
+        hn::BlendedStore(q4, hn::FirstN(d16, static_cast<std::size_t>(tw - x)), d16, row + x);
+#else
+        hn::Store(q4, d16, out);
+        std::copy_n(out, tw - x, row + x);
+#endif
+      }
+    }
+  }
+}
+
 // WTA over band candidates c0..c1 for every pixel of the tile. With the whole union in the band
 // (first && last), a pass for the winner and, for uniqueness, a second pass for the second best.
 // Otherwise the one-pass state is carried from chunk to chunk. The state of every pixel goes
@@ -500,41 +544,7 @@ void WtaTile(const MatchJob& job, const TileBounds& tb, int x0, int y0, int tw, 
       }
     }
   }
-  if (!last) return;
-  const int ratio = job.config->uniqueness_ratio;
-  alignas(64) std::int16_t out[kMaxLanes16];
-  alignas(64) std::int16_t margins[kMaxLanes16];
-  for (int r = 0; r < th; ++r) {
-    std::int16_t* row = job.disparity->row(y0 + r) + x0;
-    for (int x = 0; x < tw; x += N16) {
-      const std::int16_t* sp = state + (r * kTile + x) * kStateWords;
-      WtaState st;
-      st.bc = hn::Load(d16, sp + 0 * N16);
-      st.bd = hn::Load(d16, sp + 1 * N16);
-      st.cm1 = kSubpixel ? hn::Load(d16, sp + 2 * N16) : inf;
-      st.cp1 = kSubpixel ? hn::Load(d16, sp + 3 * N16) : inf;
-      st.sec = kUnique ? hn::Load(d16, sp + 4 * N16) : inf;
-      const V16 f = hn::Load(d16, tb.F[r] + x), l = hn::Load(d16, tb.L[r] + x);
-      const V16 q4 = Finalize<kSubpixel, kUnique>(st, f, l, ratio);
-      if (kUnique && job.margin != nullptr) {
-        hn::Store(MarginOf(st, f, l), d16, margins);
-        std::uint8_t* m = job.margin->row(y0 + r) + x0 + x;
-        for (int i = 0; i < std::min(N16, tw - x); ++i) m[i] = static_cast<std::uint8_t>(margins[i]);
-      }
-      // The pixels past tw belong to the next tile, which another thread may be writing: only the
-      // tile's own pixels are stored, by a masked store where the target has a true one.
-      if (x + N16 <= tw) {
-        hn::StoreU(q4, d16, row + x);
-      } else {
-#if HWY_TARGET <= HWY_AVX3
-        hn::BlendedStore(q4, hn::FirstN(d16, static_cast<std::size_t>(tw - x)), d16, row + x);
-#else
-        hn::Store(q4, d16, out);
-        std::copy_n(out, tw - x, row + x);
-#endif
-      }
-    }
-  }
+  if (last) FinalizeTile<kSubpixel, kUnique>(job, tb, x0, y0, tw, th, state);
 }
 
 // The ranges of a tile row's coarse rows cy0, cy0 + 1, ... across the level (fine columns from 0),
@@ -545,16 +555,16 @@ struct PriorRows {
   int cy0;
 };
 
-// One tile; prior_rows: the ranges MatchTileRow made from the prior (null: the tile makes them).
-void MatchTileWith(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t bytes, const PriorRows* prior_rows) {
+// Step 1 of a tile at (x0, y0), tw x th pixels: the candidate intervals of its pixels and their
+// hulls, and their union [umin, umax] (empty: umin > umax). prior_rows: the ranges MatchTileRow
+// made from the prior (null: the tile makes them).
+void TileBoundsOf(const MatchJob& job, int x0, int y0, int tw, int th, const PriorRows* prior_rows, TileBounds& tb,
+                  int& umin, int& umax) {
   const D16 d16;
   const int N16 = static_cast<int>(hn::Lanes(d16));
-  const int w = job.ref.width, h = job.ref.height;
+  const int w = job.ref.width;
   const int dir = job.config->dir;
-  const int x0 = (tile % job.tiles_x) * job.tile_w, y0 = (tile / job.tiles_x) * kRows;
-  const int tw = std::min(job.tile_w, w - x0), th = std::min(kRows, h - y0);
-  // 1. Bounds. Columns past the tile get the empty interval through vlo/vhi.
-  TileBounds tb;
+  // Columns past the tile get the empty interval through vlo/vhi.
   alignas(64) std::int16_t vlo[kTile], vhi[kTile];
   for (int x = 0; x < kTile; ++x) {
     if (x < tw) {
@@ -591,7 +601,8 @@ void MatchTileWith(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t
     for (std::int16_t* buffer : {narrow_lo, narrow_hi, row_lo, row_hi})
       std::fill_n(buffer, kTile + kRangeSegmentSlack, std::int16_t{0});
   int made_cy = -1;
-  int umin = INT16_MAX, umax = INT16_MIN;
+  umin = INT16_MAX;
+  umax = INT16_MIN;
   for (int r = 0; r < th; ++r) {
     const std::int16_t* lr = made_lo;
     const std::int16_t* hr = made_hi;
@@ -639,6 +650,74 @@ void MatchTileWith(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t
     umin = std::min(umin, rf);
     umax = std::max(umax, rl);
   }
+}
+
+// Row pointers of the codes of tile rows -4 .. th + 3 of the tile row at y0. Rows outside the ones
+// the codes hold now are never read (the window reaches a rows at most): their pointers only need
+// to be valid.
+TileRows TileRowsOf(const MatchJob& job, int x0, int y0) {
+  TileRows tr;
+  tr.x0 = x0;
+  for (int t = 0; t < kRows + 8; ++t) {
+    const int y = std::clamp(clamp_index(y0 + t - 4, job.ref.height), job.ref.row_lo, job.ref.row_hi);
+    for (int k = 0; k < job.ref.words; ++k) {
+      tr.ref[k][t] = job.ref.row(k, y);
+      tr.other[k][t] = job.other.row(k, y);
+    }
+  }
+  return tr;
+}
+
+// The columns [xa, xb) of the tile (tile-local) whose column hulls contain d (xa >= xb: none).
+HWY_INLINE void ColumnsWith(const TileBounds& tb, int tw, int d, int& xa, int& xb) {
+  const D16 d16;
+  const int N16 = static_cast<int>(hn::Lanes(d16));
+  const V16 dv = hn::Set(d16, static_cast<std::int16_t>(d));
+  xa = kTile;
+  xb = 0;
+  for (int x = 0; x < tw; x += N16) {
+    const auto m = hn::Not(hn::Or(hn::Gt(hn::Load(d16, tb.col_f + x), dv), hn::Lt(hn::Load(d16, tb.col_l + x), dv)));
+    std::uint8_t bits[8] = {};
+    hn::StoreMaskBits(d16, m, bits);
+    std::uint64_t b = 0;
+    std::memcpy(&b, bits, sizeof b);
+    if (b == 0) continue;
+    xa = std::min(xa, x + std::countr_zero(b));
+    xb = x + 64 - std::countl_zero(b);
+  }
+}
+
+// The rows [ya, yb) of the tile whose row hulls contain d (ya >= yb: none).
+HWY_INLINE void RowsWith(const TileBounds& tb, int th, int d, int& ya, int& yb) {
+  ya = 0;
+  yb = th;
+  while (ya < th && !(tb.row_f[ya] <= d && d <= tb.row_l[ya])) ++ya;
+  while (yb > ya && !(tb.row_f[yb - 1] <= d && d <= tb.row_l[yb - 1])) --yb;
+}
+
+CostFn CostOf(const MatchJob& job) {
+  const int a = job.config->shd_window;
+  return job.ref.words == 1 ? CostFor<1>(a) : job.ref.words == 2 ? CostFor<2>(a) : CostFor<3>(a);
+}
+
+// WtaTile over band candidates c0..c1 for the job's sub-pixel and uniqueness (or margin).
+void WtaTileFor(const MatchJob& job, const TileBounds& tb, int x0, int y0, int tw, int th, const std::int16_t* band,
+                int kc, int c0, int c1, bool first, bool last, std::int16_t* state) {
+  const bool sub = job.config->subpixel, uniq = job.config->uniqueness_ratio > 0 || job.margin != nullptr;
+  if (sub && uniq) WtaTile<true, true>(job, tb, x0, y0, tw, th, band, kc, c0, c1, first, last, state);
+  else if (sub) WtaTile<true, false>(job, tb, x0, y0, tw, th, band, kc, c0, c1, first, last, state);
+  else if (uniq) WtaTile<false, true>(job, tb, x0, y0, tw, th, band, kc, c0, c1, first, last, state);
+  else WtaTile<false, false>(job, tb, x0, y0, tw, th, band, kc, c0, c1, first, last, state);
+}
+
+// One tile; prior_rows: the ranges MatchTileRow made from the prior (null: the tile makes them).
+void MatchTileWith(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t bytes, const PriorRows* prior_rows) {
+  const int w = job.ref.width, h = job.ref.height;
+  const int x0 = (tile % job.tiles_x) * job.tile_w, y0 = (tile / job.tiles_x) * kRows;
+  const int tw = std::min(job.tile_w, w - x0), th = std::min(kRows, h - y0);
+  TileBounds tb;
+  int umin = 0, umax = 0;
+  TileBoundsOf(job, x0, y0, tw, th, prior_rows, tb, umin, umax);
   if (umin > umax) {  // no pixel of the tile has a candidate
     for (int r = 0; r < th; ++r) {
       std::fill_n(job.disparity->row(y0 + r) + x0, tw, kInvalid);
@@ -653,52 +732,21 @@ void MatchTileWith(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t
   std::int16_t* band = reinterpret_cast<std::int16_t*>(mem + kFixedBytes);
   const int cap = static_cast<int>((bytes - kFixedBytes) / (kRows * kTile * sizeof(std::int16_t)));
   const int kc = std::min(umax - umin + 1, cap);
-  const int words = job.ref.words;
-  const int a = job.config->shd_window;
-  const CostFn cost = words == 1 ? CostFor<1>(a) : words == 2 ? CostFor<2>(a) : CostFor<3>(a);
-  TileRows tr;
-  tr.x0 = x0;
-  for (int t = 0; t < th + 8; ++t) {
-    // Rows outside the ones the codes hold now are never read (the window reaches a rows at
-    // most): their pointers only need to be valid.
-    const int y = std::clamp(clamp_index(y0 + t - 4, h), job.ref.row_lo, job.ref.row_hi);
-    for (int k = 0; k < words; ++k) {
-      tr.ref[k][t] = job.ref.row(k, y);
-      tr.other[k][t] = job.other.row(k, y);
-    }
-  }
-  // The second best serves the uniqueness test and the margin.
-  const bool sub = job.config->subpixel, uniq = job.config->uniqueness_ratio > 0 || job.margin != nullptr;
+  const CostFn cost = CostOf(job);
+  const TileRows tr = TileRowsOf(job, x0, y0);
   for (int c0 = umin; c0 <= umax; c0 += kc) {
     const int c1 = std::min(umax, c0 + kc - 1);
     for (int d = c0; d <= c1; ++d) {
       // The columns and rows whose hulls contain d (a rectangle that may include pixels which do
       // not search d: their costs are computed and never read).
-      const V16 dv = hn::Set(d16, static_cast<std::int16_t>(d));
-      int xa = kTile, xb = 0;
-      for (int x = 0; x < tw; x += N16) {
-        const auto m = hn::Not(hn::Or(hn::Gt(hn::Load(d16, tb.col_f + x), dv),
-                                      hn::Lt(hn::Load(d16, tb.col_l + x), dv)));
-        std::uint8_t bits[8] = {};
-        hn::StoreMaskBits(d16, m, bits);
-        std::uint64_t b = 0;
-        std::memcpy(&b, bits, sizeof b);
-        if (b == 0) continue;
-        xa = std::min(xa, x + std::countr_zero(b));
-        xb = x + 64 - std::countl_zero(b);
-      }
+      int xa = 0, xb = 0, ya = 0, yb = 0;
+      ColumnsWith(tb, tw, d, xa, xb);
       if (xa >= xb) continue;
-      int ya = 0, yb = th;
-      while (ya < th && !(tb.row_f[ya] <= d && d <= tb.row_l[ya])) ++ya;
-      while (yb > ya && !(tb.row_f[yb - 1] <= d && d <= tb.row_l[yb - 1])) --yb;
+      RowsWith(tb, th, d, ya, yb);
       if (ya >= yb) continue;
-      cost(tr, dir * d, d, xa, xb, ya, yb, band, kc, c0, vrows);
+      cost(tr, job.config->dir * d, d, xa, xb, ya, yb, band, kc, c0, vrows);
     }
-    const bool first = c0 == umin, last = c1 == umax;
-    if (sub && uniq) WtaTile<true, true>(job, tb, x0, y0, tw, th, band, kc, c0, c1, first, last, state);
-    else if (sub) WtaTile<true, false>(job, tb, x0, y0, tw, th, band, kc, c0, c1, first, last, state);
-    else if (uniq) WtaTile<false, true>(job, tb, x0, y0, tw, th, band, kc, c0, c1, first, last, state);
-    else WtaTile<false, false>(job, tb, x0, y0, tw, th, band, kc, c0, c1, first, last, state);
+    WtaTileFor(job, tb, x0, y0, tw, th, band, kc, c0, c1, c0 == umin, c1 == umax, state);
   }
 }
 
@@ -710,24 +758,28 @@ void MatchTile(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t byt
 // ranges are made once across the level, where each tile would make its own segment of them: at
 // the widths of a tile the segment's fixed costs outweighed its work (realtime at 640 x 480: 8 %
 // of the frame in PriorRangeSegment). The values are the same, column by column.
-void MatchTileRow(const MatchJob& job, int tile_row, std::uint8_t* mem, std::size_t bytes, std::uint8_t* prior_rows) {
+// The ranges of the tile row's coarse rows made from the prior into `buffer` (prior_rows_bytes()),
+// or null where they come otherwise (range planes, the temporal prior, the whole level range).
+const PriorRows* MakePriorRows(const MatchJob& job, int tile_row, std::uint8_t* buffer, PriorRows& rows) {
   const SearchRanges& ranges = *job.ranges;
-  const int first = tile_row * job.tiles_x, last = first + job.tiles_x;
-  if (prior_rows == nullptr || ranges.from_planes() || ranges.prior == nullptr || ranges.with_temporal()) {
-    for (int t = first; t < last; ++t) MatchTile(job, t, mem, bytes);
-    return;
-  }
+  if (buffer == nullptr || ranges.from_planes() || ranges.prior == nullptr || ranges.with_temporal()) return nullptr;
   const int w = job.ref.width, y0 = tile_row * kRows, th = std::min(kRows, job.ref.height - y0);
   const int last_cy = ranges.prior->height() - 1;
   const std::size_t stride = prior_row_entries(w);
-  std::int16_t* lo = reinterpret_cast<std::int16_t*>(prior_rows);
+  std::int16_t* lo = reinterpret_cast<std::int16_t*>(buffer);
   std::int16_t* hi = lo + (kRows / 2) * stride;
-  const PriorRows rows{lo, hi, stride, std::min(y0 / 2, last_cy)};
+  rows = PriorRows{lo, hi, stride, std::min(y0 / 2, last_cy)};
   for (int cy = rows.cy0; cy <= std::min((y0 + th - 1) / 2, last_cy); ++cy) {
     const std::size_t at = static_cast<std::size_t>(cy - rows.cy0) * stride;
     PriorRangeSegment(*ranges.prior, cy, 0, w, ranges.dmin, ranges.dmax, ranges.radius, lo + at, hi + at);
   }
-  for (int t = first; t < last; ++t) MatchTileWith(job, t, mem, bytes, &rows);
+  return &rows;
+}
+
+void MatchTileRow(const MatchJob& job, int tile_row, std::uint8_t* mem, std::size_t bytes, std::uint8_t* prior_rows) {
+  PriorRows rows;
+  const PriorRows* made = MakePriorRows(job, tile_row, prior_rows, rows);
+  for (int t = tile_row * job.tiles_x; t < (tile_row + 1) * job.tiles_x; ++t) MatchTileWith(job, t, mem, bytes, made);
 }
 
 }  // namespace mctstereo::detail::cpu::HWY_NAMESPACE
