@@ -537,8 +537,8 @@ TEST(Pipeline, SgmInSegmentsEqualsTheWholeVolume) {
 }
 
 // MatcherOptions::adapt_threads runs some frames of a matcher of 2 threads on the calling thread
-// alone (at least the first trial's 2 of the first 18 frames): every preset, the maps, right maps
-// and confidence of all the threads frame after frame.
+// alone (at least the first trial's, frames 4 to 6): every preset, the maps, right maps and
+// confidence of all the threads frame after frame.
 TEST(Pipeline, AdaptingTheThreadsKeepsTheMaps) {
   const StereoPair pair = textured_pair(203, 97, 30, 8);
   for (const std::string& name : preset_names()) {
