@@ -439,56 +439,13 @@ HWY_INLINE V16 MarginOf(const WtaState& st, V16 f, V16 l) {
 #endif
 }
 
-// The Q4 disparities (and margins, where the job wants them) of a tile's pixels from their WTA
-// states (as WtaTile leaves them after the last candidate).
-template <bool kSubpixel, bool kUnique>
-void FinalizeTile(const MatchJob& job, const TileBounds& tb, int x0, int y0, int tw, int th,
-                  const std::int16_t* state) {
-  const D16 d16;
-  const int N16 = static_cast<int>(hn::Lanes(d16));
-  const V16 inf = hn::Set(d16, kInf);
-  const int ratio = job.config->uniqueness_ratio;
-  alignas(64) std::int16_t out[kMaxLanes16];
-  alignas(64) std::int16_t margins[kMaxLanes16];
-  for (int r = 0; r < th; ++r) {
-    std::int16_t* row = job.disparity->row(y0 + r) + x0;
-    for (int x = 0; x < tw; x += N16) {
-      const std::int16_t* sp = state + (r * kTile + x) * kStateWords;
-      WtaState st;
-      st.bc = hn::Load(d16, sp + 0 * N16);
-      st.bd = hn::Load(d16, sp + 1 * N16);
-      st.cm1 = kSubpixel ? hn::Load(d16, sp + 2 * N16) : inf;
-      st.cp1 = kSubpixel ? hn::Load(d16, sp + 3 * N16) : inf;
-      st.sec = kUnique ? hn::Load(d16, sp + 4 * N16) : inf;
-      const V16 f = hn::Load(d16, tb.F[r] + x), l = hn::Load(d16, tb.L[r] + x);
-      const V16 q4 = Finalize<kSubpixel, kUnique>(st, f, l, ratio);
-      if (kUnique && job.margin != nullptr) {
-        hn::Store(MarginOf(st, f, l), d16, margins);
-        std::uint8_t* m = job.margin->row(y0 + r) + x0 + x;
-        for (int i = 0; i < std::min(N16, tw - x); ++i) m[i] = static_cast<std::uint8_t>(margins[i]);
-      }
-      // The pixels past tw belong to the next tile, which another thread may be writing: only the
-      // tile's own pixels are stored, by a masked store where the target has a true one.
-      if (x + N16 <= tw) {
-        hn::StoreU(q4, d16, row + x);
-      } else {
-#if HWY_TARGET <= HWY_AVX3
-        hn::BlendedStore(q4, hn::FirstN(d16, static_cast<std::size_t>(tw - x)), d16, row + x);
-#else
-        hn::Store(q4, d16, out);
-        std::copy_n(out, tw - x, row + x);
-#endif
-      }
-    }
-  }
-}
-
 // WTA over band candidates c0..c1 for every pixel of the tile. With the whole union in the band
 // (first && last), a pass for the winner and, for uniqueness, a second pass for the second best.
 // Otherwise the one-pass state is carried from chunk to chunk. The state of every pixel goes
 // through the scratch either way, and the disparities are formed in a pass of their own once the
 // last candidate is seen: kept apart from the candidate loops, whose trip counts vary, the
-// arithmetic of many pixels overlaps.
+// arithmetic of many pixels overlaps. (That pass stays in this function: as a function of its own,
+// GCC 12 for aarch64 crashed compiling WtaTile's SVE code.)
 template <bool kSubpixel, bool kUnique>
 void WtaTile(const MatchJob& job, const TileBounds& tb, int x0, int y0, int tw, int th,
              const std::int16_t* band, int kc, int c0, int c1, bool first, bool last,
@@ -544,7 +501,41 @@ void WtaTile(const MatchJob& job, const TileBounds& tb, int x0, int y0, int tw, 
       }
     }
   }
-  if (last) FinalizeTile<kSubpixel, kUnique>(job, tb, x0, y0, tw, th, state);
+  if (!last) return;
+  const int ratio = job.config->uniqueness_ratio;
+  alignas(64) std::int16_t out[kMaxLanes16];
+  alignas(64) std::int16_t margins[kMaxLanes16];
+  for (int r = 0; r < th; ++r) {
+    std::int16_t* row = job.disparity->row(y0 + r) + x0;
+    for (int x = 0; x < tw; x += N16) {
+      const std::int16_t* sp = state + (r * kTile + x) * kStateWords;
+      WtaState st;
+      st.bc = hn::Load(d16, sp + 0 * N16);
+      st.bd = hn::Load(d16, sp + 1 * N16);
+      st.cm1 = kSubpixel ? hn::Load(d16, sp + 2 * N16) : inf;
+      st.cp1 = kSubpixel ? hn::Load(d16, sp + 3 * N16) : inf;
+      st.sec = kUnique ? hn::Load(d16, sp + 4 * N16) : inf;
+      const V16 f = hn::Load(d16, tb.F[r] + x), l = hn::Load(d16, tb.L[r] + x);
+      const V16 q4 = Finalize<kSubpixel, kUnique>(st, f, l, ratio);
+      if (kUnique && job.margin != nullptr) {
+        hn::Store(MarginOf(st, f, l), d16, margins);
+        std::uint8_t* m = job.margin->row(y0 + r) + x0 + x;
+        for (int i = 0; i < std::min(N16, tw - x); ++i) m[i] = static_cast<std::uint8_t>(margins[i]);
+      }
+      // The pixels past tw belong to the next tile, which another thread may be writing: only the
+      // tile's own pixels are stored, by a masked store where the target has a true one.
+      if (x + N16 <= tw) {
+        hn::StoreU(q4, d16, row + x);
+      } else {
+#if HWY_TARGET <= HWY_AVX3
+        hn::BlendedStore(q4, hn::FirstN(d16, static_cast<std::size_t>(tw - x)), d16, row + x);
+#else
+        hn::Store(q4, d16, out);
+        std::copy_n(out, tw - x, row + x);
+#endif
+      }
+    }
+  }
 }
 
 // The ranges of a tile row's coarse rows cy0, cy0 + 1, ... across the level (fine columns from 0),
