@@ -643,13 +643,13 @@ void TileBoundsOf(const MatchJob& job, int x0, int y0, int tw, int th, const Pri
   }
 }
 
-// Row pointers of the codes of tile rows -4 .. th + 3 of the tile row at y0. Rows outside the ones
-// the codes hold now are never read (the window reaches a rows at most): their pointers only need
-// to be valid.
-TileRows TileRowsOf(const MatchJob& job, int x0, int y0) {
+// Row pointers of the codes of tile rows -4 .. th + 3 of the tile at (x0, y0). Rows outside the
+// ones the codes hold now are never read (the window reaches a rows at most): their pointers only
+// need to be valid.
+TileRows TileRowsOf(const MatchJob& job, int x0, int y0, int th) {
   TileRows tr;
   tr.x0 = x0;
-  for (int t = 0; t < kRows + 8; ++t) {
+  for (int t = 0; t < th + 8; ++t) {
     const int y = std::clamp(clamp_index(y0 + t - 4, job.ref.height), job.ref.row_lo, job.ref.row_hi);
     for (int k = 0; k < job.ref.words; ++k) {
       tr.ref[k][t] = job.ref.row(k, y);
@@ -724,7 +724,7 @@ void MatchTileWith(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t
   const int cap = static_cast<int>((bytes - kFixedBytes) / (kRows * kTile * sizeof(std::int16_t)));
   const int kc = std::min(umax - umin + 1, cap);
   const CostFn cost = CostOf(job);
-  const TileRows tr = TileRowsOf(job, x0, y0);
+  const TileRows tr = TileRowsOf(job, x0, y0, th);
   for (int c0 = umin; c0 <= umax; c0 += kc) {
     const int c1 = std::min(umax, c0 + kc - 1);
     for (int d = c0; d <= c1; ++d) {
@@ -745,12 +745,11 @@ void MatchTile(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t byt
   MatchTileWith(job, tile, mem, bytes, nullptr);
 }
 
-// With the ranges from the prior alone (no range planes, no temporal prior), each coarse row's
-// ranges are made once across the level, where each tile would make its own segment of them: at
-// the widths of a tile the segment's fixed costs outweighed its work (realtime at 640 x 480: 8 %
-// of the frame in PriorRangeSegment). The values are the same, column by column.
-// The ranges of the tile row's coarse rows made from the prior into `buffer` (prior_rows_bytes()),
-// or null where they come otherwise (range planes, the temporal prior, the whole level range).
+// The ranges of the tile row's coarse rows, made from the prior into `buffer` (prior_rows_bytes())
+// once across the level, where each tile would make its own segment of them: at the widths of a
+// tile the segment's fixed costs outweighed its work (realtime at 640 x 480: 8 % of the frame in
+// PriorRangeSegment). The values are the same, column by column. Null where the ranges come
+// otherwise (range planes, the temporal prior, the whole level range): the tiles make them.
 const PriorRows* MakePriorRows(const MatchJob& job, int tile_row, std::uint8_t* buffer, PriorRows& rows) {
   const SearchRanges& ranges = *job.ranges;
   if (buffer == nullptr || ranges.from_planes() || ranges.prior == nullptr || ranges.with_temporal()) return nullptr;
