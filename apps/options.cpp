@@ -133,6 +133,10 @@ ParameterFlags::ParameterFlags(CLI::App& app) {
       [&v](StereoParams& p) { p.lr_check = v.lr_check; });
   add(app, "--lr-threshold", v.lr_threshold, "largest left-right difference kept, pixels of the level, [0, 16]",
       [&v](StereoParams& p) { p.lr_threshold = v.lr_threshold; });
+  add(app, "--lr-check-grid,!--no-lr-check-grid", v.lr_check_grid,
+      "finest level: check the left map against the right map on the grid of even rows and columns (the right "
+      "view's median on that grid)",
+      [&v](StereoParams& p) { p.lr_check_grid = v.lr_check_grid; });
   add(app, "--speckle-size", v.speckle_size,
       "regions smaller than this many pixels become invalid; 0 = off; [0, 1000000]",
       [&v](StereoParams& p) { p.speckle_size = v.speckle_size; });
@@ -384,6 +388,7 @@ Json parameters_json(const StereoParams& p) {
   j.set("fill", to_string(p.fill));
   j.set("post_median_size", p.post_median_size);
   j.set("refine_all_levels", p.refine_all_levels);
+  j.set("lr_check_grid", p.lr_check_grid);
   j.set("working_scale", p.working_scale);
   j.set("aggregation", to_string(p.aggregation));
   j.set("sgm_p1", p.sgm_p1);

@@ -58,6 +58,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   p.fill = static_cast<FillMode>(in.ConsumeIntegralInRange<int>(0, 2));
   p.post_median_size = field(in, 0, 5);
   p.refine_all_levels = in.ConsumeBool();
+  p.lr_check_grid = in.ConsumeBool();
   p.aggregation = static_cast<Aggregation>(in.ConsumeIntegralInRange<int>(0, 2));
   p.sgm_p1 = field(in, 0, 400);
   p.sgm_p2 = field(in, 0, 1000);

@@ -344,6 +344,7 @@ PYBIND11_MODULE(_mctstereo, m) {
   MCTSTEREO_FIELD(uniqueness_ratio, "Best must beat the second best by this percent, [0, 100], 0 = off");
   MCTSTEREO_FIELD(fill, "FillMode (or 'none', 'nearest', 'nearest-lower')");
   MCTSTEREO_FIELD(post_median_size, "Median after filling: 0, 3 or 5");
+  MCTSTEREO_FIELD(lr_check_grid, "LR check of the left map against the right map on the grid of even rows and columns (its median on that grid)");
   MCTSTEREO_FIELD(refine_all_levels, "Refine at every level rather than the finest only");
   MCTSTEREO_FIELD(aggregation, "Aggregation (or 'box', 'sgm4', 'sgm8')");
   MCTSTEREO_FIELD(sgm_p1, "SGM penalty of a 1-disparity step, [0, 16383]");

@@ -1339,7 +1339,8 @@ def speed_stages(report, bench, file_name, d, t):
     text += f", then {second} ({100 * min(shares[second]):.0f} to {100 * max(shares[second]):.0f} %)."
     if dominant == "match":
         text += (" Matching is the SHD cost and the winner-takes-all with sub-pixel, for both views at every level; "
-                 "the right view is matched in full only to serve the left-right check. It is bound less by the "
+                 "the right view is matched only to serve the left-right check (with `realtime`'s check on the right "
+                 "map's grid, at the finest level its even rows only). It is bound less by the "
                  "popcounts than by the candidates: each tile of pixels computes, per candidate disparity, the "
                  "rectangle of pixels whose search ranges contain it, and on real scenes the union of the ranges in "
                  "a tile is wider than the pixels' own ranges; tighter per-row candidate spans are the next step.")
@@ -1565,7 +1566,7 @@ def speed_scaling(report, bench, file_name):
                "finest level a pixel has 3 to 5 candidates (radius 1 around the coarse prior), fewer than the lanes of "
                "a vector, so the per-pixel work around the candidates (the search range from the 3x3 prior, the "
                "rectangle of a tile that holds a candidate, the sub-pixel fit and the uniqueness test, the right view "
-               "matched only for the LR check) costs more than the popcounts; the arithmetic bound would need the "
+               "matched only for the LR check, at `realtime`'s finest level on its even rows) costs more than the popcounts; the arithmetic bound would need the "
                "whole band of a tile to be as narrow as its pixels' ranges. For `realtime` the stage's time here "
                "includes the census of both views, which runs inside it strip by strip (census_match). **Census** is "
                "an ALU stage: 24 byte compares, as many masked adds and the interleaving stores per vector of "

@@ -50,6 +50,8 @@ struct StageTable {
   decltype(&detail::reference::remove_speckles) remove_speckles;
   decltype(&detail::reference::speckle_label_width) speckle_label_width;
   decltype(&detail::reference::fill_invalid) fill_invalid;
+  decltype(&detail::reference::grid_partner) grid_partner;
+  decltype(&detail::reference::grid_partner_scratch_bytes) grid_partner_scratch_bytes;
   decltype(&detail::reference::refine_left_map) refine_left_map;
   decltype(&detail::reference::refine_left_map_scratch_bytes) refine_left_map_scratch_bytes;
   decltype(&detail::reference::output_q4) output_q4;
@@ -67,7 +69,8 @@ struct StageTable {
   StageTable {                                                                                   \
     &ns::to_gray, &ns::pyramid_down, &ns::census_transform, &ns::census_match,                   \
         &ns::census_match_scratch_bytes, &ns::median_filter, &ns::lr_check, &ns::remove_speckles, \
-        &ns::speckle_label_width, &ns::fill_invalid, &ns::refine_left_map,                        \
+        &ns::speckle_label_width, &ns::fill_invalid, &ns::grid_partner,                           \
+        &ns::grid_partner_scratch_bytes, &ns::refine_left_map,                                    \
         &ns::refine_left_map_scratch_bytes, &ns::output_q4, &ns::upscale, &ns::sgm_costs,         \
         &ns::sgm_aggregate, &ns::sgm_scratch_bytes, &ns::sgm_select, &ns::confidence,             \
         &ns::split_channels, &ns::weighted_median                                                 \
@@ -90,6 +93,21 @@ bool whole_code_planes(const detail::LevelSpec& level, Backend backend) {
 bool refines_left_map_at_once(const StereoParams& p, const MatcherOptions& o) {
   return p.lr_check && !o.compute_right && !o.compute_confidence && !p.sgm() && !p.temporal &&
          p.speckle_size <= 1 && !p.weighted_median;
+}
+
+// Bytes per thread of the scratch that census_match() (box levels), refine_left_map() and
+// grid_partner() share: they run one after the other.
+template <class Stages>
+std::size_t match_scratch_bytes(const StereoParams& p, const MatcherOptions& o, const detail::LevelPlan& plan,
+                                const Stages& stages) {
+  const int w0 = plan.finest().width;
+  std::size_t bytes = 0;
+  if (plan.box_range > 0)
+    bytes = stages.census_match_scratch_bytes(w0, plan.box_range, std::max(p.shd_window, p.coarse_shd_window),
+                                              plan.census_words);
+  if (plan.box_range > 0 && refines_left_map_at_once(p, o)) bytes = std::max(bytes, stages.refine_left_map_scratch_bytes(w0));
+  if (p.lr_check && p.lr_check_grid) bytes = std::max(bytes, stages.grid_partner_scratch_bytes(w0));
+  return bytes;
 }
 
 // Row states of band SGM on the cpu backend with `threads` threads: the checkpoints of levels in
@@ -189,6 +207,7 @@ struct Matcher::Impl {
   std::vector<StageTime> timings;
   double slot_ms[kSlotCount] = {};
   std::unique_ptr<detail::cpu::WorkerPool> pool;  // cpu backend with more than one thread
+  Plane<std::int16_t> grid_partners;               // the left map's partners beside the right map
   detail::cpu::LoadPolicy load_policy;             // MatcherOptions::adapt_threads
   long frames_alone = 0;                           // frames the pool's matcher ran on one thread
   bool single_threaded = false;                    // Matcher::set_single_threaded
@@ -283,14 +302,12 @@ struct Matcher::Impl {
       confidence_q8.reset(levels[0].width, levels[0].height);
       out_confidence.reset(w, h);
     }
-    if (plan.box_range > 0) {
-      const int max_shd = std::max(p.shd_window, p.coarse_shd_window);
+    if (const std::size_t bytes = match_scratch_bytes(p, o, plan, *stages); bytes > 0) {
       match_scratch.threads = threads;
-      std::size_t bytes = stages->census_match_scratch_bytes(levels[0].width, plan.box_range, max_shd, plan.census_words);
-      if (refines_left_map_at_once(p, o)) bytes = std::max(bytes, stages->refine_left_map_scratch_bytes(levels[0].width));
       match_scratch.bytes_per_thread = (bytes + 63) / 64 * 64;
       match_scratch.data = detail::allocate_aligned<std::uint8_t>(match_scratch.bytes_per_thread * threads);
     }
+    if (p.lr_check && p.lr_check_grid && o.compute_right) grid_partners.reset(levels[0].width, levels[0].height);
     if (p.speckle_size > 0) {
       speckle_scratch.label.reset(stages->speckle_label_width(levels[0].width), levels[0].height);
       speckle_scratch.stack =
@@ -378,15 +395,30 @@ struct Matcher::Impl {
   void refine(Level& L, bool finest) {
     if (finest && refines_left_map_at_once(params, options)) {
       const detail::LeftMapRefinement config{params.median_size, 16 * params.lr_threshold, params.fill,
-                                             params.post_median_size};
+                                             params.post_median_size, params.lr_check_grid};
       stages->refine_left_map(L.disparity[0], L.disparity[1], config, match_scratch, L.scratch[1], L.scratch[0]);
       std::swap(L.disparity[0], L.scratch[0]);
       return;
     }
     const int views = need_right ? 2 : 1;
     const int kept = finest && !options.compute_right ? 1 : views;
+    // With the LR check on the grid (StereoParams::lr_check_grid) the left map's partners come from
+    // the raw right map: in its place when it serves nothing else (then it needs no median), else
+    // beside it. The confidence then reads the partners too.
+    const bool grid = finest && params.lr_check && params.lr_check_grid;
+    int median_views = views;
+    if (grid) {
+      if (options.compute_right) {
+        stages->grid_partner(L.disparity[1], params.median_size, match_scratch, grid_partners);
+      } else {
+        stages->grid_partner(L.disparity[1], params.median_size, match_scratch, L.scratch[1]);
+        std::swap(L.disparity[1], L.scratch[1]);
+        median_views = 1;
+      }
+    }
+    const Plane<std::int16_t>& right_of_left = grid && options.compute_right ? grid_partners : L.disparity[1];
     if (params.median_size > 0) {
-      for (int v = 0; v < views; ++v) {
+      for (int v = 0; v < median_views; ++v) {
         stages->median_filter(L.disparity[v], params.median_size, L.scratch[v]);
         std::swap(L.disparity[v], L.scratch[v]);
       }
@@ -394,7 +426,8 @@ struct Matcher::Impl {
     if (params.lr_check) {
       // Both checks read the maps as they were before either was checked.
       for (int v = 0; v < kept; ++v)
-        stages->lr_check(L.disparity[v], L.disparity[1 - v], v == 0 ? -1 : +1, 16 * params.lr_threshold, L.scratch[v]);
+        stages->lr_check(L.disparity[v], v == 0 ? right_of_left : L.disparity[0], v == 0 ? -1 : +1,
+                         16 * params.lr_threshold, L.scratch[v]);
       for (int v = 0; v < kept; ++v) std::swap(L.disparity[v], L.scratch[v]);
     }
     if (L.speckle > 1)
@@ -404,7 +437,7 @@ struct Matcher::Impl {
       if (lazy_confidence()) {
         copy_map(L.disparity[0], L.scratch[1]);
       } else {
-        stages->confidence(margin, margin_level, L.disparity[0], need_right ? &L.disparity[1] : nullptr,
+        stages->confidence(margin, margin_level, L.disparity[0], need_right ? &right_of_left : nullptr,
                            params.lr_threshold, confidence_q8);
         confidence_q8_current = true;
       }
@@ -598,6 +631,12 @@ struct Matcher::Impl {
       detail::swap_in_previous_maps(levels, [&](int v) -> Plane<std::uint8_t>& { return full_gray[v].back(); });
   }
 
+  // Whether view v of level l is matched at its even rows only: the right view at the finest level
+  // when the LR check reads it on its grid (grid_partner()) and nothing else reads it.
+  bool matches_even_rows_only(int l, int v) const {
+    return l == 0 && v == 1 && params.lr_check && params.lr_check_grid && !options.compute_right;
+  }
+
   // Census and local matching of level l: each view searches around its own coarser map.
   detail::CensusMatchJob census_match_job(int l, const detail::CensusConfig& census, int views) {
     Level& L = levels[l];
@@ -609,7 +648,8 @@ struct Matcher::Impl {
       job.image[v] = &level_image(l, v);
       if (v >= views) continue;
       job.ranges[v] = search_ranges(l, v);
-      job.config[v] = {v == 0 ? -1 : +1, L.shd_window, params.subpixel && l == 0, params.uniqueness_ratio};
+      job.config[v] = {v == 0 ? -1 : +1, L.shd_window, params.subpixel && l == 0, params.uniqueness_ratio,
+                       matches_even_rows_only(l, v)};
       job.disparity[v] = &L.disparity[v];
     }
     job.margin = l == 0 && want_confidence && margin_level == 0 ? &margin : nullptr;
@@ -699,7 +739,7 @@ struct Matcher::Impl {
         w.views = L.right_map ? 2 : 1;
         for (int v = 0; v < w.views; ++v) {
           const detail::SearchRanges ranges = search_ranges(static_cast<int>(l), v);
-          for (int y = 0; y < L.height; ++y)
+          for (int y = 0; y < L.height; y += matches_even_rows_only(static_cast<int>(l), v) ? 2 : 1)
             for (int x = 0; x < L.width; ++x) {
               const detail::Interval r = ranges.at(x, y);
               total += std::max(r.hi - r.lo + 1, 0);
@@ -850,12 +890,15 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   }
   const int w0 = plan.finest().width, h0 = plan.finest().height;
   const int threads = options.threads > 0 ? options.threads : default_threads();
-  if (plan.box_range > 0) {
-    const int max_shd = std::max(params.shd_window, params.coarse_shd_window);
-    std::size_t bytes = detail::cpu::census_match_scratch_bytes(w0, plan.box_range, max_shd, words);
-    if (refines_left_map_at_once(params, options)) bytes = std::max(bytes, detail::cpu::refine_left_map_scratch_bytes(w0));
+  struct CpuStages {
+    decltype(&detail::cpu::census_match_scratch_bytes) census_match_scratch_bytes = &detail::cpu::census_match_scratch_bytes;
+    decltype(&detail::cpu::refine_left_map_scratch_bytes) refine_left_map_scratch_bytes =
+        &detail::cpu::refine_left_map_scratch_bytes;
+    decltype(&detail::cpu::grid_partner_scratch_bytes) grid_partner_scratch_bytes = &detail::cpu::grid_partner_scratch_bytes;
+  };
+  if (const std::size_t bytes = match_scratch_bytes(params, options, plan, CpuStages{}); bytes > 0)
     total += threads * ((bytes + 63) / 64 * 64);
-  }
+  if (params.lr_check && params.lr_check_grid && options.compute_right) total += map_bytes(w0, h0);
   if (params.speckle_size > 0)
     total += Plane<std::int32_t>::bytes_for(detail::cpu::speckle_label_width(w0), h0) +
              static_cast<std::size_t>(w0) * h0 * 4;

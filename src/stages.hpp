@@ -50,6 +50,9 @@ struct MatchConfig {
   int shd_window = 5;           ///< a, odd, 1..9
   bool subpixel = false;        ///< parabola fit into Q4
   int uniqueness_ratio = 0;     ///< percent, 0 = off
+  /// Match the even rows only and leave the odd ones as they are: the right view's map at the
+  /// finest level when the LR check reads it on its grid alone (grid_partner()).
+  bool even_rows = false;
 };
 
 /// Scratch memory of the matching stage, allocated by the driver once per matcher.
@@ -210,6 +213,7 @@ struct LeftMapRefinement {
   int threshold_q4 = 16;     ///< the LR check's largest difference, Q4
   FillMode fill = FillMode::NearestLower;
   int post_median_size = 0;  ///< 0 (off), 3 or 5
+  bool grid = false;         ///< the right map's partners on its grid (grid_partner())
 };
 
 /// Band SGM (docs/PIPELINE.md, "Band SGM"): the candidates, costs and path sums of one level,
@@ -542,9 +546,19 @@ inline int level_dmax(const StereoParams& p, int level, int l) {
   int speckle_label_width(int width);                                                            \
   /* Fills invalid pixels along their row. */                                                     \
   void fill_invalid(Plane<std::int16_t>& disparity, FillMode mode);                               \
+  /* The left map's LR partners on the grid of the right map's even rows and columns            */ \
+  /* (StereoParams::lr_check_grid): partner(x, y) = M(x / 2, y / 2), M the k x k median          */ \
+  /* (k = median_size; 0: none) of the grid G(i, j) = right(2i, 2j), i < ceil(W/2), j < ceil(H/2), */ \
+  /* clamped at the grid's borders as median_filter() clamps. scratch: grid_partner_scratch_bytes() */ \
+  /* per thread.                                                                                  */ \
+  void grid_partner(const Plane<std::int16_t>& right, int median_size, MatchScratch& scratch,    \
+                    Plane<std::int16_t>& partner);                                                 \
+  /* Scratch bytes one thread of grid_partner() needs for maps `width` wide.                      */ \
+  std::size_t grid_partner_scratch_bytes(int width);                                               \
   /* out = post-median(fill(lr_check(median(left), median(right), dir -1))), each step exactly  */ \
-  /* as its own stage (a median of size 0 is skipped). left and right (the raw maps) may be      */ \
-  /* overwritten; spare is a plane of their size; out is none of the three. The cpu backend runs */ \
+  /* as its own stage (a median of size 0 is skipped; config.grid: grid_partner(right) in place */ \
+  /* of median(right)). left and right (the raw maps) may be overwritten; spare is a plane of  */ \
+  /* their size; out is none of the three. The cpu backend runs                                  */ \
   /* it strip by strip in `scratch` (refine_left_map_scratch_bytes() per thread), while each     */ \
   /* strip's rows are in the cache.                                                              */ \
   void refine_left_map(Plane<std::int16_t>& left, Plane<std::int16_t>& right,                    \

@@ -51,6 +51,21 @@ inline Plane<std::int16_t> median_of(const Plane<std::int16_t>& src, int k) {
   return out;
 }
 
+// The left map's LR partners on the right map's grid (StereoParams::lr_check_grid), built as the
+// parameter describes it: the raw right map's even rows and columns as a half-size map, its
+// median there, and each of its pixels spread over the 2 x 2 pixels it stands for.
+inline Plane<std::int16_t> grid_partners_of(const Plane<std::int16_t>& right, int median_size) {
+  const int w = right.width(), h = right.height();
+  Plane<std::int16_t> grid((w + 1) / 2, (h + 1) / 2);
+  for (int j = 0; j < grid.height(); ++j)
+    for (int i = 0; i < grid.width(); ++i) grid.at(i, j) = right.at(2 * i, 2 * j);
+  if (median_size > 0) grid = median_of(grid, median_size);
+  Plane<std::int16_t> partners(w, h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) partners.at(x, y) = grid.at(x / 2, y / 2);
+  return partners;
+}
+
 inline CensusCodes census_of(const Plane<std::uint8_t>& image, const StereoParams& p) {
   CensusCodes codes;
   codes.words = detail::census_words(p.census_window);
@@ -189,13 +204,18 @@ inline FrameResult reference_frame(const ImageView& left, const ImageView& right
 
     // Refinement. At the finest level the right map only serves the LR check unless asked for.
     const int kept = finest && !options.compute_right ? 1 : views;
+    // With the LR check on the grid, the left map is checked against (and the confidence reads)
+    // the raw right map's partners instead of its median.
+    const bool grid = finest && p.lr_check && p.lr_check_grid;
+    const Plane<std::int16_t> partners = grid ? fr::grid_partners_of(L.map[1], p.median_size) : Plane<std::int16_t>();
     if (p.median_size > 0)
       for (int v = 0; v < views; ++v) L.map[v] = fr::median_of(L.map[v], p.median_size);
     if (p.lr_check) {
       Plane<std::int16_t> checked[2];
       for (int v = 0; v < kept; ++v) {
         checked[v].reset(L.width, L.height);
-        ref::lr_check(L.map[v], L.map[1 - v], v == 0 ? -1 : +1, 16 * p.lr_threshold, checked[v]);
+        ref::lr_check(L.map[v], v == 0 && grid ? partners : L.map[1 - v], v == 0 ? -1 : +1, 16 * p.lr_threshold,
+                      checked[v]);
       }
       for (int v = 0; v < kept; ++v) L.map[v] = std::move(checked[v]);
     }
@@ -203,7 +223,8 @@ inline FrameResult reference_frame(const ImageView& left, const ImageView& right
     if (speckle_size > 1)
       for (int v = 0; v < kept; ++v) ref::remove_speckles(L.map[v], speckle_size, 16, speckle);
     if (finest && want_confidence)
-      ref::confidence(margin, margin_level, L.map[0], need_right ? &L.map[1] : nullptr, p.lr_threshold, confidence_q8);
+      ref::confidence(margin, margin_level, L.map[0], !need_right ? nullptr : grid ? &partners : &L.map[1],
+                      p.lr_threshold, confidence_q8);
     for (int v = 0; v < kept; ++v) ref::fill_invalid(L.map[v], p.fill);
     int first_post = 0;
     if (finest && p.weighted_median) {

@@ -271,6 +271,26 @@ inline std::vector<PipelineCase> pipeline_cases() {
   StereoParams wm_row = wm;
   wm_row.num_disparities = 8;
   out.push_back({"weighted_median_one_row", wm_row, 33, 1});
+  // The LR check on the right map's grid (realtime's) on other presets and with odd sizes, four
+  // cases in a row so that the frame-reference test gives them the four combinations of the
+  // right map and the confidence: band SGM below box levels, SGM at every level (no box level
+  // shares its scratch), a 5 x 5 median on the grid, and none.
+  StereoParams grid_balanced = preset("balanced");
+  grid_balanced.lr_check_grid = true;
+  grid_balanced.num_disparities = 24;
+  out.push_back({"lr_check_grid_balanced", grid_balanced, 97, 61});
+  StereoParams grid_sgm = sgm_every_level();
+  grid_sgm.lr_check_grid = true;
+  grid_sgm.num_disparities = 20;
+  out.push_back({"lr_check_grid_sgm_every_level", grid_sgm, 71, 39});
+  StereoParams grid_median5 = preset("realtime");
+  grid_median5.median_size = 5;
+  grid_median5.num_disparities = 28;
+  out.push_back({"lr_check_grid_median_5", grid_median5, 67, 43});
+  StereoParams grid_no_median = preset("realtime");
+  grid_no_median.median_size = 0;
+  grid_no_median.num_disparities = 16;
+  out.push_back({"lr_check_grid_no_median", grid_no_median, 33, 3});
   return out;
 }
 

@@ -461,10 +461,19 @@ TEST(Pipeline, LevelWorkCountsTheCandidatesOfEachLevel) {
   EXPECT_EQ(work[3].height, 16);
   for (const LevelWork& w : work) EXPECT_EQ(w.views, 2);
   EXPECT_DOUBLE_EQ(work[3].candidates, 9.0) << "0 .. ceil(63 / 8)";
+  // realtime checks the left map on the right map's grid: the finest level matches the right
+  // view at its even rows only, three quarters of the pairs of both views in full.
+  StereoParams full_right = p;
+  full_right.lr_check_grid = false;
+  Matcher full(256, 128, full_right);
+  full.compute(left, right);
+  const std::vector<LevelWork> full_work = full.level_work();
   for (int l = 0; l < 3; ++l) {
-    EXPECT_GE(work[l].candidates, 2.5) << "level " << l;
-    EXPECT_LE(work[l].candidates, 3.6) << "level " << l;
+    EXPECT_GE(full_work[l].candidates, 2.5) << "level " << l;
+    EXPECT_LE(full_work[l].candidates, 3.6) << "level " << l;
+    if (l > 0) EXPECT_DOUBLE_EQ(work[l].candidates, full_work[l].candidates) << "level " << l;
   }
+  EXPECT_NEAR(work[0].candidates / full_work[0].candidates, 0.75, 0.03);
   EXPECT_DOUBLE_EQ(work[0].pairs(), 256.0 * 128 * 2 * work[0].candidates);
   Matcher ref(256, 128, p, Backend::Reference);
   ref.compute(left, right);

@@ -79,7 +79,9 @@ struct LevelWork {
   /// Views matched: 2 when the LR check (or compute_right) needs the right map of box
   /// aggregation; 1 with band SGM, whose right map comes from the same sums.
   int views = 0;
-  double candidates = 0.0;  ///< disparities examined per pixel and view, mean over the level
+  /// Disparities examined per pixel and view, mean over the level (a pixel that is not matched
+  /// counts 0: the right view's odd rows at the finest level under StereoParams::lr_check_grid).
+  double candidates = 0.0;
   /// Pixel-disparity pairs examined at the level, all views: width x height x views x candidates.
   double pairs() const { return static_cast<double>(width) * height * views * candidates; }
 };

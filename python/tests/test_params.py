@@ -11,7 +11,7 @@ import mctstereo
 FIELDS = [
     "min_disparity", "num_disparities", "census", "census_window", "mct_kernel", "shd_window",
     "coarse_shd_window", "pyramid_levels", "search_radius", "subpixel", "median_size", "lr_check",
-    "lr_threshold", "speckle_size", "uniqueness_ratio", "fill", "post_median_size", "refine_all_levels",
+    "lr_threshold", "lr_check_grid", "speckle_size", "uniqueness_ratio", "fill", "post_median_size", "refine_all_levels",
     "aggregation", "sgm_p1", "sgm_p2", "sgm_p2_k", "prior_size", "box_levels", "finest_search_radius", "sgm_max_band",
     "weighted_median", "wm_radius", "wm_step", "wm_sigma", "working_scale",
     "temporal", "temporal_radius", "temporal_threshold",

@@ -137,7 +137,7 @@ HWY_INLINE V16 NarrowPair(hn::Vec<DU32> lo, hn::Vec<DU32> hi) {
 // on the whole stage than V rows built from the previous one and a ring of Hamming rows in memory.
 template <int kWords, int kA>
 void CostRectangle(const TileRows& tr, int s, int d, int xa, int xb, int ya, int yb,
-                   std::int16_t* band, int kc, int c0, std::int16_t* vrows) {
+                   std::int16_t* band, int kc, int c0, std::int16_t* vrows, int row_step) {
   constexpr int kH = kA / 2;
   const int n = xb - xa + 2 * kH;  // columns of V: the output columns and the margins
   const int gx = tr.x0 + xa - kH;  // image column of V[0]
@@ -193,6 +193,9 @@ void CostRectangle(const TileRows& tr, int s, int d, int xa, int xb, int ya, int
   const int N16 = static_cast<int>(hn::Lanes(d16));
   const int xs = xa - xa % N16;
   for (int o = 0; o < outs; ++o) {
+    // With MatchConfig::even_rows the odd rows need no costs (tiles start at even image rows, so
+    // a tile row's parity is the image row's); their running vertical sums still pass through.
+    if ((ya + o) % row_step != 0) continue;
     const std::int16_t* vsum = v0 + o * kVLen;
     std::int16_t* dst = band + ((ya + o) * kc + (d - c0)) * kTile;
     for (int x = xs; x < xb; x += N16) {
@@ -205,7 +208,7 @@ void CostRectangle(const TileRows& tr, int s, int d, int xa, int xb, int ya, int
 }
 
 using CostFn = void (*)(const TileRows&, int, int, int, int, int, int, std::int16_t*, int, int,
-                        std::int16_t*);
+                        std::int16_t*, int);
 
 template <int kWords>
 CostFn CostFor(int a) {
@@ -455,7 +458,9 @@ void WtaTile(const MatchJob& job, const TileBounds& tb, int x0, int y0, int tw, 
   const int N16 = static_cast<int>(hn::Lanes(d16));
   const V16 inf = hn::Set(d16, kInf);
   const bool whole = first && last;
-  for (int r = 0; r < th; ++r) {
+  static_assert(kRows % 2 == 0, "tiles start at even rows");
+  const int row_step = job.config->even_rows ? 2 : 1;
+  for (int r = 0; r < th; r += row_step) {
     for (int x = 0, v = 0; x < tw; x += N16, ++v) {
       const V16 f = hn::Load(d16, tb.F[r] + x), l = hn::Load(d16, tb.L[r] + x);
       const std::int16_t* col = band + r * kc * kTile + x;
@@ -505,7 +510,7 @@ void WtaTile(const MatchJob& job, const TileBounds& tb, int x0, int y0, int tw, 
   const int ratio = job.config->uniqueness_ratio;
   alignas(64) std::int16_t out[kMaxLanes16];
   alignas(64) std::int16_t margins[kMaxLanes16];
-  for (int r = 0; r < th; ++r) {
+  for (int r = 0; r < th; r += row_step) {
     std::int16_t* row = job.disparity->row(y0 + r) + x0;
     for (int x = 0; x < tw; x += N16) {
       const std::int16_t* sp = state + (r * kTile + x) * kStateWords;
@@ -595,6 +600,15 @@ void TileBoundsOf(const MatchJob& job, int x0, int y0, int tw, int th, const Pri
   umin = INT16_MAX;
   umax = INT16_MIN;
   for (int r = 0; r < th; ++r) {
+    if (job.config->even_rows && (y0 + r) % 2 != 0) {  // no candidate: the row is not matched
+      for (int x = 0; x < kTile; x += N16) {
+        hn::Store(vmax, d16, tb.F[r] + x);
+        hn::Store(vmin, d16, tb.L[r] + x);
+      }
+      tb.row_f[r] = INT16_MAX;
+      tb.row_l[r] = INT16_MIN;
+      continue;
+    }
     const std::int16_t* lr = made_lo;
     const std::int16_t* hr = made_hi;
     if (ranges.from_planes()) {
@@ -710,7 +724,7 @@ void MatchTileWith(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t
   int umin = 0, umax = 0;
   TileBoundsOf(job, x0, y0, tw, th, prior_rows, tb, umin, umax);
   if (umin > umax) {  // no pixel of the tile has a candidate
-    for (int r = 0; r < th; ++r) {
+    for (int r = 0; r < th; r += job.config->even_rows ? 2 : 1) {
       std::fill_n(job.disparity->row(y0 + r) + x0, tw, kInvalid);
       if (job.margin != nullptr) std::fill_n(job.margin->row(y0 + r) + x0, tw, std::uint8_t{0});
     }
@@ -724,6 +738,7 @@ void MatchTileWith(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t
   const int cap = static_cast<int>((bytes - kFixedBytes) / (kRows * kTile * sizeof(std::int16_t)));
   const int kc = std::min(umax - umin + 1, cap);
   const CostFn cost = CostOf(job);
+  const int row_step = job.config->even_rows ? 2 : 1;
   const TileRows tr = TileRowsOf(job, x0, y0, th);
   for (int c0 = umin; c0 <= umax; c0 += kc) {
     const int c1 = std::min(umax, c0 + kc - 1);
@@ -735,7 +750,7 @@ void MatchTileWith(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t
       if (xa >= xb) continue;
       RowsWith(tb, th, d, ya, yb);
       if (ya >= yb) continue;
-      cost(tr, job.config->dir * d, d, xa, xb, ya, yb, band, kc, c0, vrows);
+      cost(tr, job.config->dir * d, d, xa, xb, ya, yb, band, kc, c0, vrows, row_step);
     }
     WtaTileFor(job, tb, x0, y0, tw, th, band, kc, c0, c1, c0 == umin, c1 == umax, state);
   }

@@ -118,6 +118,7 @@ struct Pipeline::Stages {
   CensusTransform census;
   std::optional<MedianFilter> median, post_median;
   std::optional<LrCheck> lr_check[2];  // the check of the left view's map, then the right's
+  std::optional<GridPartner> grid_partner;  // StereoParams::lr_check_grid
   FillInvalid fill;
   std::optional<Upscale> upscale;
   std::optional<ToOutput> output;  // the right view's, without the float map
@@ -144,6 +145,7 @@ struct Pipeline::Stages {
     if (p.post_median_size > 0) post_median.emplace(rt, p.post_median_size);
     if (p.lr_check) lr_check[0].emplace(rt, -1);
     if (p.lr_check && check_right) lr_check[1].emplace(rt, +1);
+    if (p.lr_check && p.lr_check_grid) grid_partner.emplace(rt, p.median_size);
     if (p.working_scale > 1) upscale.emplace(rt, p.working_scale);
     if (compute_right) output.emplace(rt, false);
     if (p.weighted_median) {
@@ -286,6 +288,7 @@ void Pipeline::allocate() {
     if (L.is_sgm) allocate_sgm_planes(L);
   }
   if (plan.sgm_levels > 0) allocate_sgm_storage();
+  if (p.lr_check && p.lr_check_grid && options_.compute_right) plane(grid_partners_, plan.finest().width, plan.finest().height);
   if (want_confidence_) {
     margin_level_ = plan.margin_level();
     plane(margin_, levels_[margin_level_].width, levels_[margin_level_].height);
@@ -440,8 +443,22 @@ void Pipeline::match_sgm(int l, const DevicePlane<std::int16_t>* prior) {
 void Pipeline::refine(Level& L, bool finest) {
   const int views = need_right_ ? 2 : 1;
   const int kept = finest && !options_.compute_right ? 1 : views;
+  // The LR check on the grid, as Matcher::Impl::refine makes it: the left map's partners in the
+  // right map's place, or beside it when it is an output.
+  const bool grid = finest && params_.lr_check && params_.lr_check_grid;
+  int median_views = views;
+  if (grid) {
+    if (options_.compute_right) {
+      stages_->grid_partner->run(L.disparity[1], grid_partners_);
+    } else {
+      stages_->grid_partner->run(L.disparity[1], L.scratch[1]);
+      std::swap(L.disparity[1], L.scratch[1]);
+      median_views = 1;
+    }
+  }
+  const DevicePlane<std::int16_t>& right_of_left = grid && options_.compute_right ? grid_partners_ : L.disparity[1];
   if (params_.median_size > 0) {
-    for (int v = 0; v < views; ++v) {
+    for (int v = 0; v < median_views; ++v) {
       stages_->median->run(L.disparity[v], L.scratch[v]);
       std::swap(L.disparity[v], L.scratch[v]);
     }
@@ -449,14 +466,15 @@ void Pipeline::refine(Level& L, bool finest) {
   if (params_.lr_check) {
     // Both checks read the maps as they were before either was checked.
     for (int v = 0; v < kept; ++v)
-      stages_->lr_check[v]->run(L.disparity[v], L.disparity[1 - v], 16 * params_.lr_threshold, L.scratch[v]);
+      stages_->lr_check[v]->run(L.disparity[v], v == 0 ? right_of_left : L.disparity[0], 16 * params_.lr_threshold,
+                                L.scratch[v]);
     for (int v = 0; v < kept; ++v) std::swap(L.disparity[v], L.scratch[v]);
   }
   if (L.speckle > 1)
     for (int v = 0; v < kept; ++v) remove_speckles_on_host(L, v, L.speckle);
   // The confidence of the final map: what survived the checks, before the fill guesses.
   if (finest && want_confidence_)
-    stages_->confidence->run(margin_, margin_level_, L.disparity[0], need_right_ ? &L.disparity[1] : nullptr,
+    stages_->confidence->run(margin_, margin_level_, L.disparity[0], need_right_ ? &right_of_left : nullptr,
                              params_.lr_threshold, confidence_);
   for (int v = 0; v < kept; ++v) stages_->fill.run(L.disparity[v]);
   // The colour-weighted median and its 3x3 median take the place of the post-fill median in the

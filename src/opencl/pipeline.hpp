@@ -96,6 +96,9 @@ class Pipeline {
   // The margins of the plan's margin_level and the finest level's confidence, when want_confidence_.
   int margin_level_ = 0;
   DevicePlane<std::uint8_t> margin_, confidence_;
+  // The left map's partners beside the right map (StereoParams::lr_check_grid, with the right map
+  // asked for).
+  DevicePlane<std::int16_t> grid_partners_;
   SpeckleScratch speckle_scratch_;  // speckle removal runs on the host
   double speckle_ms_ = 0;
   std::vector<StageTime> timings_;  // filled in place: a frame only changes the times

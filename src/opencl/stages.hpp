@@ -174,6 +174,13 @@ class MedianFilter : StageKernel {
   void run(const DevicePlane<std::int16_t>& src, DevicePlane<std::int16_t>& dst);
 };
 
+/// reference::grid_partner (median size 0, 3 or 5).
+class GridPartner : StageKernel {
+ public:
+  GridPartner(Runtime& rt, int median_size);
+  void run(const DevicePlane<std::int16_t>& right, DevicePlane<std::int16_t>& partner);
+};
+
 /// reference::lr_check of one direction.
 class LrCheck : StageKernel {
  public:
@@ -313,6 +320,8 @@ void match(Runtime& rt, const DeviceCodes& ref, const DeviceCodes& other, const 
            DevicePlane<std::int16_t>& disparity, DevicePlane<std::uint8_t>* margin = nullptr,
            const DeviceTemporal* temporal = nullptr);
 void median_filter(Runtime& rt, const DevicePlane<std::int16_t>& src, int k, DevicePlane<std::int16_t>& dst);
+void grid_partner(Runtime& rt, const DevicePlane<std::int16_t>& right, int median_size,
+                  DevicePlane<std::int16_t>& partner);
 void lr_check(Runtime& rt, const DevicePlane<std::int16_t>& src, const DevicePlane<std::int16_t>& other, int dir,
               int threshold_q4, DevicePlane<std::int16_t>& dst);
 void fill_invalid(Runtime& rt, DevicePlane<std::int16_t>& disparity, FillMode mode);

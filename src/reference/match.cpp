@@ -17,7 +17,7 @@ void match(const CensusCodes& ref, const CensusCodes& other, const SearchRanges&
   const int hr = config.shd_window / 2;
   int* cost = reinterpret_cast<int*>(scratch.data.get());
 
-  for (int y = 0; y < h; ++y) {
+  for (int y = 0; y < h; y += config.even_rows ? 2 : 1) {
     for (int x = 0; x < w; ++x) {
       const auto [dlo, dhi] = ranges.at(x, y);
       // Candidates whose matching pixel x + dir * d lies in the image: a contiguous interval.

@@ -6,15 +6,19 @@ namespace mctstereo::detail::reference {
 
 // The stages one after the other on whole maps, as the driver runs them elsewhere.
 void refine_left_map(Plane<std::int16_t>& left, Plane<std::int16_t>& right, const LeftMapRefinement& config,
-                     MatchScratch& /*scratch*/, Plane<std::int16_t>& spare, Plane<std::int16_t>& out) {
+                     MatchScratch& scratch, Plane<std::int16_t>& spare, Plane<std::int16_t>& out) {
   // The checked map goes where neither of its inputs is: out after medians into out and spare,
   // left (no longer read) after them; then the post-median (or a copy) brings it to out.
   Plane<std::int16_t>* checked = &out;
   if (config.median_size > 0) {
     median_filter(left, config.median_size, out);
-    median_filter(right, config.median_size, spare);
+    if (config.grid) grid_partner(right, config.median_size, scratch, spare);
+    else median_filter(right, config.median_size, spare);
     lr_check(out, spare, -1, config.threshold_q4, left);
     checked = &left;
+  } else if (config.grid) {
+    grid_partner(right, 0, scratch, spare);
+    lr_check(left, spare, -1, config.threshold_q4, out);
   } else {
     lr_check(left, right, -1, config.threshold_q4, out);
   }

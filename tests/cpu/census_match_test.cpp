@@ -26,8 +26,11 @@ struct Case {
   int radius = -1;  // >= 0: ranges around coarse priors (20 % invalid) with this radius
   bool subpixel = true;
   int uniqueness = 15;
+  bool right_even_rows = false;  // the right view matched at its even rows only
   std::uint32_t seed = 1;
 };
+
+constexpr std::int16_t kUntouched = 12345;
 
 /// Valid pixels of the reference's left map (so that callers can check the case had work).
 long expect_same(const Case& c) {
@@ -48,7 +51,7 @@ long expect_same(const Case& c) {
       p = &prior[v];
     }
     job.ranges[v] = detail::SearchRanges::around(p, c.dmin, c.dmax, std::max(c.radius, 0));
-    job.config[v] = {v == 0 ? -1 : +1, c.shd, c.subpixel, c.uniqueness};
+    job.config[v] = {v == 0 ? -1 : +1, c.shd, c.subpixel, c.uniqueness, v == 1 && c.right_even_rows};
   }
   const int range = c.dmax - c.dmin + 1;
 
@@ -58,6 +61,7 @@ long expect_same(const Case& c) {
                                               code_planes(c.w, c.h, c.census.window)};
   for (int v = 0; v < 2 && matched(v); ++v) {
     expected[v].reset(c.w, c.h);
+    for (int y = 0; y < c.h; ++y) std::fill_n(expected[v].row(y), c.w, kUntouched);
     job.disparity[v] = &expected[v];
   }
   job.margin = &expected_margin;
@@ -80,7 +84,7 @@ long expect_same(const Case& c) {
       std::array<Plane<std::int16_t>, 2> got;
       for (int v = 0; v < 2 && matched(v); ++v) {
         got[v].reset(c.w, c.h);
-        for (int y = 0; y < c.h; ++y) std::fill_n(got[v].row(y), c.w, std::int16_t{12345});
+        for (int y = 0; y < c.h; ++y) std::fill_n(got[v].row(y), c.w, kUntouched);
         job.disparity[v] = &got[v];
       }
       Plane<std::uint8_t> margin(c.w, c.h);
@@ -95,6 +99,64 @@ long expect_same(const Case& c) {
   });
   omp_set_num_threads(saved_threads);
   return valid;
+}
+
+// MatchConfig::even_rows: the right view's odd rows are left as they were by both backends, and
+// its even rows are matched as without it.
+TEST(CpuCensusMatch, RightViewAtEvenRowsOnly) {
+  std::uint32_t seed = 90;
+  for (auto [w, h] : awkward_sizes()) {
+    if (w * h > 100000) w = 181, h = 167;
+    for (int radius : {-1, 1}) {
+      Case c{w, h};
+      c.dmax = std::min(w + 2, 20);
+      c.radius = radius;
+      c.right_even_rows = true;
+      c.seed = ++seed;
+      expect_same(c);
+    }
+  }
+}
+
+TEST(CpuCensusMatch, RightViewAtEvenRowsOnlyMatchesThoseRowsAsAlways) {
+  // The reference with and without even_rows: equal at the even rows, untouched at the odd ones.
+  Case c{77, 41};
+  const ShiftedPair pair = shifted_pair(c.w, c.h, 7, 4);
+  std::array<Plane<std::int16_t>, 2> maps;
+  for (int even : {0, 1}) {
+    CensusMatchJob job;
+    job.image = {&pair.left, &pair.right};
+    job.census = c.census;
+    job.views = 2;
+    for (int v = 0; v < 2; ++v) {
+      job.ranges[v] = detail::SearchRanges::around(nullptr, c.dmin, c.dmax, 0);
+      job.config[v] = {v == 0 ? -1 : +1, c.shd, c.subpixel, c.uniqueness, v == 1 && even == 1};
+    }
+    std::array<Plane<std::int16_t>, 2> out;
+    std::array<detail::CensusCodes, 2> codes = {code_planes(c.w, c.h, c.census.window),
+                                                code_planes(c.w, c.h, c.census.window)};
+    for (int v = 0; v < 2; ++v) {
+      out[v].reset(c.w, c.h);
+      for (int y = 0; y < c.h; ++y) std::fill_n(out[v].row(y), c.w, kUntouched);
+      job.disparity[v] = &out[v];
+    }
+    job.codes = codes.data();
+    MatchScratch scratch = thread_scratch<MatchScratch>(
+        whole_lines(detail::reference::census_match_scratch_bytes(c.w, c.dmax - c.dmin + 1, c.shd, 0)), 1);
+    detail::reference::census_match(job, scratch);
+    maps[even] = std::move(out[1]);
+  }
+  int matched = 0;
+  for (int y = 0; y < c.h; ++y)
+    for (int x = 0; x < c.w; ++x) {
+      if (y % 2 == 0) {
+        ASSERT_EQ(maps[1].at(x, y), maps[0].at(x, y)) << x << ", " << y;
+        matched += maps[1].at(x, y) != kInvalid;
+      } else {
+        ASSERT_EQ(maps[1].at(x, y), kUntouched) << x << ", " << y;
+      }
+    }
+  EXPECT_GT(matched, c.w * c.h / 4);
 }
 
 TEST(CpuCensusMatch, AwkwardSizesBothViews) {

@@ -147,6 +147,79 @@ TEST(RefineReference, SpeckleKnownAnswer) {
 // ------------------------------------------------------------------------------------------
 // cpu == reference.
 
+// The partners on the grid as the parameter describes them, written apart from both backends:
+// the even rows and columns as a half-size map, its median, each of its pixels over 2 x 2.
+Plane<std::int16_t> grid_partners_by_definition(const Plane<std::int16_t>& right, int k) {
+  const int w = right.width(), h = right.height();
+  Plane<std::int16_t> grid((w + 1) / 2, (h + 1) / 2), median((w + 1) / 2, (h + 1) / 2), out(w, h);
+  for (int j = 0; j < grid.height(); ++j)
+    for (int i = 0; i < grid.width(); ++i) grid.at(i, j) = right.at(2 * i, 2 * j);
+  if (k > 0) reference::median_filter(grid, k, median);
+  const Plane<std::int16_t>& m = k > 0 ? median : grid;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) out.at(x, y) = m.at(x / 2, y / 2);
+  return out;
+}
+
+TEST(RefineReference, GridPartnerKnownAnswer) {
+  // 5 x 3: grid columns 0, 2, 4 of rows 0 and 2 (a 3 x 2 grid); odd columns and row 1 are never
+  // read.
+  const auto right = make_map(5, 3, {10, 99, 20, 99, 30,  //
+                                     99, 99, 99, 99, 99,  //
+                                     40, 99, I, 99, 60});
+  Plane<std::int16_t> partner(5, 3);
+  MatchScratch none;
+  reference::grid_partner(right, 0, none, partner);
+  EXPECT_EQ(pixels(partner), (std::vector<std::int16_t>{10, 10, 20, 20, 30,  //
+                                                        10, 10, 20, 20, 30,  //
+                                                        40, 40, I, I, 60}));
+  // 3 x 3 median on the 3 x 2 grid (10 20 30 / 40 I 60), clamped: grid (0, 0) sees 10 10 20 twice
+  // and 40 40 I -> 10; (1, 0) sees 10 20 30 twice and 40 I 60 -> 20; (0, 1) sees 10 10 20 and
+  // 40 40 I twice -> 20; (1, 1) sees 10 20 30 and 40 I 60 twice -> 30.
+  reference::grid_partner(right, 3, none, partner);
+  EXPECT_EQ(pixels(partner), (std::vector<std::int16_t>{10, 10, 20, 20, 30,  //
+                                                        10, 10, 20, 20, 30,  //
+                                                        20, 20, 30, 30, 30}));
+}
+
+TEST(RefineReference, GridPartnerIsTheMedianOnTheGrid) {
+  std::uint32_t seed = 1700;
+  for (const auto& w_h : awkward_sizes()) {
+    for (const MapKind& kind : kMapKinds) {
+      const auto right = random_disparity(w_h.first, w_h.second, ++seed, -400, 600, kind.invalid, kind.whole);
+      for (int k : {0, 3, 5}) {
+        Plane<std::int16_t> partner = random_disparity(w_h.first, w_h.second, seed + 7, 0, 9);
+        MatchScratch none;
+        reference::grid_partner(right, k, none, partner);
+        ASSERT_EQ(first_difference(grid_partners_by_definition(right, k), partner), "")
+            << w_h.first << "x" << w_h.second << " k " << k << " invalid " << kind.invalid;
+      }
+    }
+  }
+}
+
+TEST(RefineCpu, GridPartnerMatchesReference) {
+  std::uint32_t seed = 1800;
+  for (const auto& w_h : awkward_sizes()) {
+    const int w = w_h.first, h = w_h.second;
+    for (const MapKind& kind : kMapKinds) {
+      const auto right = random_disparity(w, h, ++seed, -400, 600, kind.invalid, kind.whole);
+      for (int k : {0, 3, 5}) {
+        Plane<std::int16_t> expected(w, h), actual(w, h);
+        MatchScratch none;
+        reference::grid_partner(right, k, none, expected);
+        // Slices of an odd size: the stage aligns each thread's slice itself.
+        MatchScratch scratch = thread_scratch<MatchScratch>(cpu::grid_partner_scratch_bytes(w) + 8, 2);
+        for_each_target_and_threads([&](const std::string& where) {
+          cpu::grid_partner(right, k, scratch, actual);
+          ASSERT_EQ(first_difference(expected, actual), "")
+              << w << "x" << h << " k " << k << " invalid " << kind.invalid << " on " << where;
+        });
+      }
+    }
+  }
+}
+
 TEST(RefineCpu, MedianFilterMatchesReference) {
   std::uint32_t seed = 100;
   for (const auto& w_h : awkward_sizes()) {
@@ -343,6 +416,7 @@ Plane<std::int16_t> refined_left_by_stages(const Plane<std::int16_t>& left, cons
     reference::median_filter(left, c.median_size, l);
     reference::median_filter(right, c.median_size, r);
   }
+  if (c.grid) r = grid_partners_by_definition(right, c.median_size);
   reference::lr_check(l, r, -1, c.threshold_q4, checked);
   reference::fill_invalid(checked, c.fill);
   if (c.post_median_size == 0) return checked;
@@ -361,11 +435,15 @@ const LeftMapRefinement kLeftMapRefinements[] = {
     {3, 16, FillMode::NearestLower, 3},  // realtime's
     {0, 16, FillMode::NearestLower, 3}, {5, 0, FillMode::Nearest, 5}, {3, 32, FillMode::None, 0},
     {0, 16, FillMode::NearestLower, 0}, {5, 16, FillMode::NearestLower, 3}, {3, 16, FillMode::Nearest, 5},
-    {0, 48, FillMode::None, 5}};
+    {0, 48, FillMode::None, 5},
+    // The check on the right map's grid: realtime's, and without a median.
+    {3, 16, FillMode::NearestLower, 3, true}, {0, 16, FillMode::NearestLower, 0, true},
+    {5, 32, FillMode::Nearest, 5, true}};
 
 std::string describe(const LeftMapRefinement& c) {
   return "median " + std::to_string(c.median_size) + " threshold " + std::to_string(c.threshold_q4) + " fill " +
-         std::to_string(static_cast<int>(c.fill)) + " post " + std::to_string(c.post_median_size);
+         std::to_string(static_cast<int>(c.fill)) + " post " + std::to_string(c.post_median_size) +
+         (c.grid ? " grid" : "");
 }
 
 // The reference's refine_left_map is the stages in order, whatever its planes hold before, for

@@ -94,6 +94,35 @@ TEST(OpenclRefine, MedianRejectsOtherSizes) {
 // ------------------------------------------------------------------------------------------
 // LR check.
 
+TEST(OpenclRefine, GridPartnerMatchesReference) {
+  MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
+  std::uint32_t seed = 1900;
+  for (auto [w, h] : awkward_sizes()) {
+    for (const MapKind& kind : kMapKinds) {
+      const auto right = random_disparity(w, h, ++seed, -400, 600, kind.invalid, kind.whole);
+      const auto d_right = to_device(*rt, right);
+      for (int k : {0, 3, 5}) {
+        Plane<std::int16_t> expected(w, h);
+        detail::MatchScratch none;
+        reference::grid_partner(right, k, none, expected);
+        auto d_dst = marked_plane<std::int16_t>(*rt, w, h);
+        ocl::grid_partner(*rt, d_right, k, d_dst);
+        ASSERT_EQ(first_difference(expected, to_host(*rt, d_dst)), "")
+            << w << "x" << h << " k " << k << " invalid " << kind.invalid;
+        ASSERT_EQ(padding_difference(*rt, d_dst), "") << w << "x" << h << " k " << k;
+      }
+    }
+  }
+}
+
+TEST(OpenclRefine, GridPartnerRejectsOtherSizes) {
+  MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
+  auto a = marked_plane<std::int16_t>(*rt, 8, 8), b = marked_plane<std::int16_t>(*rt, 8, 8);
+  EXPECT_THROW(ocl::grid_partner(*rt, a, 1, b), std::invalid_argument);
+  auto small = marked_plane<std::int16_t>(*rt, 7, 8);
+  EXPECT_THROW(ocl::grid_partner(*rt, a, 3, small), std::invalid_argument);
+}
+
 TEST(OpenclRefine, LrCheckKnownAnswer) {
   MCTSTEREO_OPENCL_TEST_RUNTIME(rt);
   // The reference's known answer: x = 4 disagrees by 24, x = 6 meets an invalid pixel, x = 7
