@@ -109,7 +109,9 @@ resized to each size, or with --fit tile repeated at its own size to fill it, so
 and texture stay those of the pair at every size): --warmup frames first, then at least --frames frames and until --min-time
 seconds have passed. Above 1280x720 both counts shrink with the pixel count (at least 5 timed
 frames and 1 warm-up); the reference backend, slow, scales so from 320x240 on (at least 1 frame
-each) and is timed once per size and range, with the first --threads value.
+each) and is timed once per size and range, with the first --threads value. A preset on several
+threads that adapts them (no --fixed-threads) warms up at least 6 frames (with --warmup above 0):
+its first 3 frames and its first trial of one thread, which are not its way.
 Times are wall-clock milliseconds per frame (median and 95th percentile); fps = 1000 / median;
 "x BM" = fps / fps of OpenCV StereoBM (blockSize 9) with the same size, range and threads.
 StereoSGBM: blockSize 5, MODE_SGBM_3WAY, P1 = 8*5*5, P2 = 32*5*5. OpenCV needs a multiple of 16
@@ -660,13 +662,17 @@ void time_peers(Timing& t, Group& g, const std::vector<Peer>& peers, const PairV
 
 // Times one preset on one backend, with the medians of its stages.
 void time_preset(Timing& t, Group& g, const std::string& name, Backend backend, const PairViews& views) {
-  const FramePlan plan = frame_plan(g.size, backend == Backend::Reference, t.setup.warmup, t.setup.frames);
+  FramePlan plan = frame_plan(g.size, backend == Backend::Reference, t.setup.warmup, t.setup.frames);
   MatcherOptions options;
   options.threads = g.threads_requested;
   options.device = t.setup.device;
   options.adapt_threads = !t.setup.fixed_threads;
   PresetMethod method(open_backend(backend, t.setup.device, g.size, bench_params(name, g.num_disparities), options));
   const Matcher& matcher = method.matcher();
+  // A matcher that adapts its threads tries one thread after its first frames: the warm-up covers
+  // that trial (at 4K, with its few frames, the trial's would otherwise be half of those timed).
+  if (options.adapt_threads && matcher.backend() == Backend::Cpu && matcher.threads() > 1 && t.setup.warmup > 0)
+    plan.warmup = std::max(plan.warmup, MatcherOptions::kFramesToFirstChoice);
   std::vector<std::vector<double>> stage_ms;
   const auto collect_stages = [&] {
     const std::vector<StageTime>& times = matcher.timings();

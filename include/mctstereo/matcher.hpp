@@ -61,6 +61,10 @@ struct MatcherOptions {
   /// be faster. The maps are the same either way. false: every frame on all the threads.
   /// frames_alone() counts the frames run alone.
   bool adapt_threads = true;
+  /// Frames a new matcher of several threads with adapt_threads runs before its first trial of one
+  /// thread has ended (3 on its threads, then the 3 of the trial): a benchmark that warms up fewer
+  /// would time the trial's frames as if they were the matcher's way.
+  static constexpr int kFramesToFirstChoice = 6;
   /// The OpenCL device of the opencl and auto backends: "" prefers the first GPU, else the first
   /// device; a number is an index into opencl_devices(); other text picks the first device whose
   /// name or platform contains it (case-insensitive).

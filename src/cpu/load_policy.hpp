@@ -22,6 +22,8 @@
 #include <algorithm>
 #include <array>
 
+#include "mctstereo/matcher.hpp"
+
 namespace mctstereo::detail::cpu {
 
 /// The last few frame times of one way, and their median.
@@ -60,6 +62,7 @@ class LoadPolicy {
   static constexpr int kTrialFrames = 3, kFirstTrial = 3, kFirstGap = 16, kLongestGap = 256;
   /// Frames of the way that runs whose median may call a trial before its gap ends.
   static constexpr int kEarlyFrames = 5;
+  static_assert(kFirstTrial + kTrialFrames == MatcherOptions::kFramesToFirstChoice, "the documented schedule");
 
   /// Whether the next frame runs on the threads.
   bool use_threads() const { return trial_left_ > 0 ? !threads_best_ : threads_best_; }
