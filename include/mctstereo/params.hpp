@@ -79,10 +79,11 @@ struct StereoParams {
   /// The left map's LR check at the finest level reads the right view's map on the grid of its
   /// even rows and columns: the raw right map is taken at (2i, 2j), the median (median_size)
   /// runs on that half-size grid, and a left pixel whose partner is right pixel (x', y) compares
-  /// with grid pixel (x' / 2, y / 2). The right view then needs matching at a quarter of its
-  /// pixels. With the box presets' noisier right maps the check gets better too (realtime on
-  /// Middlebury 2003: 10.56 % against 10.78 with the whole right map; 2005/2006: 15.45 against
-  /// 15.85). The right map itself (MatcherOptions::compute_right) is refined as without it.
+  /// with grid pixel (x' / 2, y / 2). The check reads a quarter of the right map's pixels, and
+  /// without compute_right the right view is matched at its even rows only. With the box presets'
+  /// noisier right maps the check gets better too (realtime on Middlebury 2003: 10.56 % against
+  /// 10.78 with the whole right map; 2005/2006: 15.45 against 15.85). The right map itself
+  /// (MatcherOptions::compute_right) is refined as without it.
   bool lr_check_grid = false;
   /// Regions (4-connected, neighbours within 1 px) smaller than this many pixels are invalidated.
   /// 0 = off. Range [0, 1000000]. Scaled by 1/4 per pyramid level.
