@@ -723,8 +723,9 @@ void MatchTileWith(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t
   TileBounds tb;
   int umin = 0, umax = 0;
   TileBoundsOf(job, x0, y0, tw, th, prior_rows, tb, umin, umax);
+  const int row_step = job.config->even_rows ? 2 : 1;  // tiles start at even rows
   if (umin > umax) {  // no pixel of the tile has a candidate
-    for (int r = 0; r < th; r += job.config->even_rows ? 2 : 1) {
+    for (int r = 0; r < th; r += row_step) {
       std::fill_n(job.disparity->row(y0 + r) + x0, tw, kInvalid);
       if (job.margin != nullptr) std::fill_n(job.margin->row(y0 + r) + x0, tw, std::uint8_t{0});
     }
@@ -738,7 +739,6 @@ void MatchTileWith(const MatchJob& job, int tile, std::uint8_t* mem, std::size_t
   const int cap = static_cast<int>((bytes - kFixedBytes) / (kRows * kTile * sizeof(std::int16_t)));
   const int kc = std::min(umax - umin + 1, cap);
   const CostFn cost = CostOf(job);
-  const int row_step = job.config->even_rows ? 2 : 1;
   const TileRows tr = TileRowsOf(job, x0, y0, th);
   for (int c0 = umin; c0 <= umax; c0 += kc) {
     const int c1 = std::min(umax, c0 + kc - 1);
