@@ -15,6 +15,9 @@ Inputs (in --results, default docs/results):
   bench_thesis.json         mctstereo bench over the thesis sizes, ranges and thread counts
   bench_backends.json       mctstereo bench with --backend reference,cpu
   bench_loaded.json         mctstereo bench with --load 2 and --threads 1,2
+  bench_loaded_repeat2.json, bench_loaded_repeat3.json
+                            optional: the same loaded run again; the loaded targets are then
+                            checked in every run, and the speed-ups given as medians with ranges
   bench_opencl.json         mctstereo bench with --backend cpu,opencl over the thesis sizes
   bench_memory.json         mctstereo bench --memory-only over the thesis sizes and ranges
 and, optionally, the disparity previews of `eval --save` (in --previews, default
@@ -61,6 +64,7 @@ BENCH_THESIS = "bench_thesis.json"
 BENCH_BACKENDS = "bench_backends.json"
 BENCH_OPENCL = "bench_opencl.json"
 BENCH_LOADED = "bench_loaded.json"
+BENCH_LOADED_REPEATS = ["bench_loaded_repeat2.json", "bench_loaded_repeat3.json"]
 BENCH_SCALING = "bench_scaling.json"
 BENCH_MEMORY = "bench_memory.json"
 SEQUENCE_TEMPORAL = "sequence_temporal.json"
@@ -85,7 +89,13 @@ NOT_FROM_THIS_RUN = [
 # Targets of the project, checked against the measurements.
 TARGET_BEST_PRESET_PERCENT_BAD = 9.5
 TARGET_MULTI_RESOLUTION_PERCENT_BAD = 11.0
-TARGET_REALTIME_X_STEREOBM = 4.0
+# At 640x480, 64 disparities, 2 threads: realtime's frame rate over StereoBM's (at least; the goal is 10).
+TARGET_REALTIME_X_STEREOBM = 8.0
+# realtime's time per pixel at the largest size over the smallest, --fit tile (at most), every range and thread count.
+TARGET_SCALING_PER_PIXEL = 1.3
+# Under --load: every preset at least as fast on 2 threads as on 1, and realtime at least this many times
+# StereoBM's frame rate (2 threads).
+TARGET_LOADED_REALTIME_X_STEREOBM = 3.0
 # Band SGM: the Middlebury 2003 average of 12 per preset (at most), and speed at 640x480, 64
 # disparities, 2 threads: balanced's frame rate over StereoBM's, quality's over StereoSGBM's (at least).
 TARGET_SGM_PERCENT_BAD = {"quality": 7.5, "balanced": 8.0, "sgm-full": 7.5}
@@ -1171,7 +1181,8 @@ def speed_headline(report, bench, file_name, ev2003, repeats=()):
             report.losses.append(("Targets", f"`realtime` reaches {rt.text('StereoBM')} at {group}, short of "
                                   f"the {number(TARGET_REALTIME_X_STEREOBM)} x target."))
     else:
-        lines.append("`realtime` was not timed in this run: the 4 x StereoBM target is not checked.")
+        lines.append(f"`realtime` was not timed in this run: the {number(TARGET_REALTIME_X_STEREOBM)} x StereoBM "
+                     "target is not checked.")
     q = target["quality"]
     if q.median is not None:
         met = q.median >= 1
@@ -1402,7 +1413,81 @@ def speed_backends(report, bench, file_name):
         report.add(f"[{file_name}]({{results}}/{file_name}) holds no pair of reference and cpu records.")
 
 
-def speed_loaded(report, bench, file_name, load_threads):
+def scaling_target(report, bench, small):
+    """realtime's time per pixel at the largest size over the smallest, against TARGET_SCALING_PER_PIXEL."""
+    large = max(bench.sizes, key=lambda s: s[0] * s[1])
+    if "realtime" not in bench.presets or large == small:
+        return
+    pixels = {size: size[0] * size[1] for size in (small, large)}
+    worst = None
+    for d in bench.disparities:
+        for t in bench.thread_settings:
+            a, b = bench.find("realtime", small, d, t), bench.find("realtime", large, d, t)
+            if a is None or b is None:
+                continue
+            r = (b["median_ms"] / pixels[large]) / (a["median_ms"] / pixels[small])
+            if worst is None or r > worst[0]:
+                worst = (r, d, t)
+    if worst is None:
+        return
+    met = worst[0] <= TARGET_SCALING_PER_PIXEL
+    report.add(f"Against the target (`realtime` at {size_text(large)} within {number(TARGET_SCALING_PER_PIXEL)} x "
+               f"of its time per pixel at {size_text(small)}, every range and thread count above): "
+               f"**{'met' if met else 'missed'}**, at most {worst[0]:.2f} x ({worst[1]} disparities, "
+               f"{worst[2]} thread{'s' if worst[2] != 1 else ''}).")
+    if not met:
+        report.losses.append(("Targets", f"`realtime`'s time per pixel at {size_text(large)} is {worst[0]:.2f} x "
+                              f"its time at {size_text(small)} ({worst[1]} disparities, {worst[2]} threads), over the "
+                              f"{number(TARGET_SCALING_PER_PIXEL)} x target."))
+
+
+def loaded_speedups(runs, method, size, d, t1, t2):
+    """The 2-thread over 1-thread speed-up of a method in each run that timed both."""
+    values = []
+    for run in runs:
+        a, b = run.find(method, size, d, t1), run.find(method, size, d, t2)
+        if a is not None and b is not None:
+            values.append(a["median_ms"] / b["median_ms"])
+    return values
+
+
+def loaded_targets(report, runs, t1, t2):
+    """The loaded targets in every run: each preset at least as fast on t2 threads as on t1, realtime's ratio."""
+    first = runs[0]
+    size = pick(first.sizes, (640, 480))
+    d = pick(first.disparities, 64)
+    presets = [m for m in first.presets if m in ("realtime", "balanced", "quality")]
+    if not presets:
+        return
+    held = 0
+    per_run = []
+    for run in runs:
+        slower = [m for m in presets if loaded_speedups([run], m, size, d, t1, t2) and
+                  loaded_speedups([run], m, size, d, t1, t2)[0] < 1]
+        per_run.append(slower)
+        held += not slower
+    n = len(runs)
+    lines = [f"every preset at least as fast on {t2} threads as on {t1}: **{'met' if held == n else 'missed'}**, held "
+             f"in {held} of {n} run{'s' if n != 1 else ''}" +
+             ("" if held == n else " (slower on 2 threads: " + "; ".join(
+                 f"run {i + 1} " + ", ".join(f"`{m}`" for m in slow) for i, slow in enumerate(per_run) if slow) +
+              ")") + "."]
+    if held < n:
+        report.losses.append(("Targets", f"Under the load, a preset ran slower on {t2} threads than on {t1} in "
+                              f"{n - held} of {n} runs ({size_text(size)}, {d} disparities)."))
+    rt = Repeated(r["ratio"] for r in (run.find("realtime", size, d, t2) for run in runs) if r is not None)
+    if rt.median is not None:
+        met = all(v >= TARGET_LOADED_REALTIME_X_STEREOBM for v in rt.values)
+        lines.append(f"`realtime` at least {number(TARGET_LOADED_REALTIME_X_STEREOBM)} x StereoBM under the load "
+                     f"({t2} threads): **{'met' if met else 'missed'}**, {rt.text('StereoBM')}.")
+        if not met:
+            report.losses.append(("Targets", f"Under the load `realtime` ran at {rt.text('StereoBM')}, below "
+                                  f"{number(TARGET_LOADED_REALTIME_X_STEREOBM)} x in at least one run."))
+    report.add(f"Against the targets ({size_text(size)}, {d} disparities, in each of the {n} run"
+               f"{'s' if n != 1 else ''}):\n\n" + "\n".join(f"- {line}" for line in lines))
+
+
+def speed_loaded(report, bench, file_name, load_threads, repeats=()):
     report.add("### On a loaded CPU")
     report.add(f"The same methods while {load_threads} threads of another process keep the cores busy (`--load "
                f"{load_threads}`), as on a robot or an AR device whose cores run other work: each method with 1 and "
@@ -1417,6 +1502,14 @@ def speed_loaded(report, bench, file_name, load_threads):
                    "runs its frames the faster way and tries the other for 3 frames now and then "
                    "(`MatcherOptions::adapt_threads`, src/cpu/load_policy.hpp; the maps are the same either way). "
                    "The last column counts the frames, warm-up included, that the 2-thread matcher ran alone.")
+    runs = [bench] + list(repeats)
+    if repeats:
+        report.add(f"The table is one run; the same command ran {len(runs)} times in a row (the JSON files "
+                   f"{', '.join(f'[{os.path.basename(r.file)}]({{results}}/{os.path.basename(r.file)})' for r in runs)}"
+                   "), and the speed-up column gives the median of the runs with their range. Which core the OS "
+                   "gives a lone thread decides much: a thread that has a core to itself while the load's threads "
+                   "share the other runs at its idle speed, one that shares a core gets two thirds of one, and "
+                   "the same command gives either from run to run.")
     report.add(code(bench.command(file_name)))
     report.add(machine_line(bench.settings, bench.file, with_threads=False))
     if len(bench.thread_settings) < 2:
@@ -1433,15 +1526,21 @@ def speed_loaded(report, bench, file_name, load_threads):
                     continue
                 row = [size_text(size), d, f"`{m}`" if a["backend"] else m, ms(a["median_ms"]),
                        ms(b["median_ms"]), f"{a['median_ms'] / b['median_ms']:.2f}", ratio(b["ratio"])]
+                if repeats:
+                    ups = sorted(loaded_speedups(runs, m, size, d, t1, t2))
+                    row.append(f"{statistics.median(ups):.2f} ({ups[0]:.2f}-{ups[-1]:.2f})")
                 if bench.adapt_threads:
                     row.append(f"{b['frames_alone']} of {b['frames'] + b['warmup_frames']}" if b["frames_alone"] is not None
                                else "-")
                 rows.append(row)
     headers = ["size", "disparities", "method", f"{t1} thread ms", f"{t2} threads ms", f"{t2} threads speed-up",
                f"x BM ({t2} threads)"]
+    if repeats:
+        headers.append(f"speed-up, {len(runs)} runs")
     if bench.adapt_threads:
         headers.append(f"frames alone ({t2} threads)")
     report.add(table(headers, rows, ["---", "---:", "---"] + ["---:"] * (len(headers) - 3)))
+    loaded_targets(report, runs, t1, t2)
 
 
 def sequence_settings(doc):
@@ -1538,6 +1637,7 @@ def speed_scaling(report, bench, file_name):
                                  f"{ns / base_ns:.2f}", ratio(r["ratio"])])
     report.add(table(["preset", "size", "disparities", "threads", "frame ms", "ns per pixel",
                       f"per pixel / {size_text(small)}", "x BM"], rows, ["---", "---", "---:", "---:"] + ["---:"] * 4))
+    scaling_target(report, bench, small)
     mhz = bench.cpu_mhz
     bound = box_alu_bound(bench.simd_target)
     rows = []
@@ -1758,6 +1858,8 @@ def build(results_dir, images_dir, output, previews_dir):
     backends = BenchRun(docs[BENCH_BACKENDS])
     opencl = BenchRun(docs[BENCH_OPENCL])
     loaded = BenchRun(docs[BENCH_LOADED])
+    loaded_repeats = [BenchRun(load(results_dir, name)) for name in BENCH_LOADED_REPEATS
+                      if os.path.isfile(os.path.join(results_dir, name))]
     loaded_threads = loaded.load_threads
     scaling = BenchRun(docs[BENCH_SCALING])
     sequence = docs[SEQUENCE_TEMPORAL]
@@ -1768,7 +1870,9 @@ def build(results_dir, images_dir, output, previews_dir):
             (BENCH_HEADLINE, headline.settings)]
     runs += [(os.path.basename(r.file), r.settings) for r in repeats]
     runs += [(BENCH_THESIS, thesis.settings), (BENCH_BACKENDS, backends.settings), (BENCH_OPENCL, opencl.settings),
-             (BENCH_LOADED, loaded.settings), (BENCH_SCALING, scaling.settings),
+             (BENCH_LOADED, loaded.settings)]
+    runs += [(os.path.basename(r.file), r.settings) for r in loaded_repeats]
+    runs += [(BENCH_SCALING, scaling.settings),
              (SEQUENCE_TEMPORAL, sequence_settings(sequence)), (BENCH_MEMORY, memory.settings)]
     header(report, runs)
     quality_2003(report, ev2003)
@@ -1780,7 +1884,7 @@ def build(results_dir, images_dir, output, previews_dir):
     speed_scaling(report, scaling, BENCH_SCALING)
     speed_backends(report, backends, BENCH_BACKENDS)
     speed_opencl(report, opencl, BENCH_OPENCL)
-    speed_loaded(report, loaded, BENCH_LOADED, loaded_threads)
+    speed_loaded(report, loaded, BENCH_LOADED, loaded_threads, loaded_repeats)
     streams_temporal(report, sequence, SEQUENCE_TEMPORAL)
     memory_section(report, memory, BENCH_MEMORY)
     previews_section(report, [(ev2003, "middlebury2003", "Middlebury 2003"),
