@@ -1483,8 +1483,9 @@ def loaded_targets(report, runs, t1, t2):
         if not met:
             report.losses.append(("Targets", f"Under the load `realtime` ran at {rt.text('StereoBM')}, below "
                                   f"{number(TARGET_LOADED_REALTIME_X_STEREOBM)} x in at least one run."))
-    report.add(f"Against the targets ({size_text(size)}, {d} disparities, in each of the {n} run"
-               f"{'s' if n != 1 else ''}):\n\n" + "\n".join(f"- {line}" for line in lines))
+    where = f"in each of the {n} runs" if n > 1 else "in this run"
+    report.add(f"Against the targets ({size_text(size)}, {d} disparities, {where}):\n\n" +
+               "\n".join(f"- {line}" for line in lines))
 
 
 def speed_loaded(report, bench, file_name, load_threads, repeats=()):
