@@ -106,7 +106,7 @@ std::size_t match_scratch_bytes(const StereoParams& p, const MatcherOptions& o, 
     bytes = stages.census_match_scratch_bytes(w0, plan.box_range, std::max(p.shd_window, p.coarse_shd_window),
                                               plan.census_words);
   if (plan.box_range > 0 && refines_left_map_at_once(p, o)) bytes = std::max(bytes, stages.refine_left_map_scratch_bytes(w0));
-  if (p.lr_check && p.lr_check_grid) bytes = std::max(bytes, stages.grid_partner_scratch_bytes(w0));
+  if (p.lr_check_on_grid()) bytes = std::max(bytes, stages.grid_partner_scratch_bytes(w0));
   return bytes;
 }
 
@@ -307,7 +307,7 @@ struct Matcher::Impl {
       match_scratch.bytes_per_thread = (bytes + 63) / 64 * 64;
       match_scratch.data = detail::allocate_aligned<std::uint8_t>(match_scratch.bytes_per_thread * threads);
     }
-    if (p.lr_check && p.lr_check_grid && o.compute_right) grid_partners.reset(levels[0].width, levels[0].height);
+    if (p.lr_check_on_grid() && o.compute_right) grid_partners.reset(levels[0].width, levels[0].height);
     if (p.speckle_size > 0) {
       speckle_scratch.label.reset(stages->speckle_label_width(levels[0].width), levels[0].height);
       speckle_scratch.stack =
@@ -395,7 +395,7 @@ struct Matcher::Impl {
   void refine(Level& L, bool finest) {
     if (finest && refines_left_map_at_once(params, options)) {
       const detail::LeftMapRefinement config{params.median_size, 16 * params.lr_threshold, params.fill,
-                                             params.post_median_size, params.lr_check_grid};
+                                             params.post_median_size, params.lr_check_on_grid()};
       stages->refine_left_map(L.disparity[0], L.disparity[1], config, match_scratch, L.scratch[1], L.scratch[0]);
       std::swap(L.disparity[0], L.scratch[0]);
       return;
@@ -405,7 +405,7 @@ struct Matcher::Impl {
     // With the LR check on the grid (StereoParams::lr_check_grid) the left map's partners come from
     // the raw right map: in its place when it serves nothing else (then it needs no median), else
     // beside it. The confidence then reads the partners too.
-    const bool grid = finest && params.lr_check && params.lr_check_grid;
+    const bool grid = finest && params.lr_check_on_grid();
     int median_views = views;
     if (grid) {
       if (options.compute_right) {
@@ -634,7 +634,7 @@ struct Matcher::Impl {
   // Whether view v of level l is matched at its even rows only: the right view at the finest level
   // when the LR check reads it on its grid (grid_partner()) and nothing else reads it.
   bool matches_even_rows_only(int l, int v) const {
-    return l == 0 && v == 1 && params.lr_check && params.lr_check_grid && !options.compute_right;
+    return l == 0 && v == 1 && params.lr_check_on_grid() && !options.compute_right;
   }
 
   // Census and local matching of level l: each view searches around its own coarser map.
@@ -739,7 +739,8 @@ struct Matcher::Impl {
         w.views = L.right_map ? 2 : 1;
         for (int v = 0; v < w.views; ++v) {
           const detail::SearchRanges ranges = search_ranges(static_cast<int>(l), v);
-          for (int y = 0; y < L.height; y += matches_even_rows_only(static_cast<int>(l), v) ? 2 : 1)
+          const int row_step = matches_even_rows_only(static_cast<int>(l), v) ? 2 : 1;
+          for (int y = 0; y < L.height; y += row_step)
             for (int x = 0; x < L.width; ++x) {
               const detail::Interval r = ranges.at(x, y);
               total += std::max(r.hi - r.lo + 1, 0);
@@ -898,7 +899,7 @@ std::size_t estimate_memory(const StereoParams& params, int width, int height, c
   };
   if (const std::size_t bytes = match_scratch_bytes(params, options, plan, CpuStages{}); bytes > 0)
     total += threads * ((bytes + 63) / 64 * 64);
-  if (params.lr_check && params.lr_check_grid && options.compute_right) total += map_bytes(w0, h0);
+  if (params.lr_check_on_grid() && options.compute_right) total += map_bytes(w0, h0);
   if (params.speckle_size > 0)
     total += Plane<std::int32_t>::bytes_for(detail::cpu::speckle_label_width(w0), h0) +
              static_cast<std::size_t>(w0) * h0 * 4;

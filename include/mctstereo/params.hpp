@@ -176,6 +176,8 @@ struct StereoParams {
   int sgm_paths() const { return aggregation == Aggregation::Sgm4 ? 4 : aggregation == Aggregation::Sgm8 ? 8 : 0; }
   /// The search radius of the finest level.
   int finest_radius() const { return finest_search_radius < 0 ? search_radius : finest_search_radius; }
+  /// Whether the finest level's LR check reads the right map on its grid (lr_check_grid takes effect).
+  bool lr_check_on_grid() const { return lr_check && lr_check_grid; }
 
   /// Checks every parameter and their combination. Returns an empty string when valid,
   /// otherwise one message per problem (joined by newlines) naming the parameter and its range.

@@ -145,7 +145,7 @@ struct Pipeline::Stages {
     if (p.post_median_size > 0) post_median.emplace(rt, p.post_median_size);
     if (p.lr_check) lr_check[0].emplace(rt, -1);
     if (p.lr_check && check_right) lr_check[1].emplace(rt, +1);
-    if (p.lr_check && p.lr_check_grid) grid_partner.emplace(rt, p.median_size);
+    if (p.lr_check_on_grid()) grid_partner.emplace(rt, p.median_size);
     if (p.working_scale > 1) upscale.emplace(rt, p.working_scale);
     if (compute_right) output.emplace(rt, false);
     if (p.weighted_median) {
@@ -288,7 +288,7 @@ void Pipeline::allocate() {
     if (L.is_sgm) allocate_sgm_planes(L);
   }
   if (plan.sgm_levels > 0) allocate_sgm_storage();
-  if (p.lr_check && p.lr_check_grid && options_.compute_right) plane(grid_partners_, plan.finest().width, plan.finest().height);
+  if (p.lr_check_on_grid() && options_.compute_right) plane(grid_partners_, plan.finest().width, plan.finest().height);
   if (want_confidence_) {
     margin_level_ = plan.margin_level();
     plane(margin_, levels_[margin_level_].width, levels_[margin_level_].height);
@@ -445,7 +445,7 @@ void Pipeline::refine(Level& L, bool finest) {
   const int kept = finest && !options_.compute_right ? 1 : views;
   // The LR check on the grid, as Matcher::Impl::refine makes it: the left map's partners in the
   // right map's place, or beside it when it is an output.
-  const bool grid = finest && params_.lr_check && params_.lr_check_grid;
+  const bool grid = finest && params_.lr_check_on_grid();
   int median_views = views;
   if (grid) {
     if (options_.compute_right) {

@@ -10,17 +10,20 @@ void refine_left_map(Plane<std::int16_t>& left, Plane<std::int16_t>& right, cons
   // The checked map goes where neither of its inputs is: out after medians into out and spare,
   // left (no longer read) after them; then the post-median (or a copy) brings it to out.
   Plane<std::int16_t>* checked = &out;
-  if (config.median_size > 0) {
-    median_filter(left, config.median_size, out);
+  // What the left map is checked against: the right map's partners on its grid, its median, or
+  // the raw map; the first two in spare.
+  const Plane<std::int16_t>* partner = &right;
+  if (config.grid || config.median_size > 0) {
     if (config.grid) grid_partner(right, config.median_size, scratch, spare);
     else median_filter(right, config.median_size, spare);
-    lr_check(out, spare, -1, config.threshold_q4, left);
+    partner = &spare;
+  }
+  if (config.median_size > 0) {
+    median_filter(left, config.median_size, out);
+    lr_check(out, *partner, -1, config.threshold_q4, left);
     checked = &left;
-  } else if (config.grid) {
-    grid_partner(right, 0, scratch, spare);
-    lr_check(left, spare, -1, config.threshold_q4, out);
   } else {
-    lr_check(left, right, -1, config.threshold_q4, out);
+    lr_check(left, *partner, -1, config.threshold_q4, out);
   }
   fill_invalid(*checked, config.fill);
   if (config.post_median_size > 0) {
