@@ -1462,8 +1462,7 @@ def loaded_targets(report, runs, t1, t2):
     held = 0
     per_run = []
     for run in runs:
-        slower = [m for m in presets if loaded_speedups([run], m, size, d, t1, t2) and
-                  loaded_speedups([run], m, size, d, t1, t2)[0] < 1]
+        slower = [m for m in presets if any(v < 1 for v in loaded_speedups([run], m, size, d, t1, t2))]
         per_run.append(slower)
         held += not slower
     n = len(runs)
