@@ -25,6 +25,10 @@
 //     "method" (a preset, "opencv-stereobm" or "opencv-stereosgbm"), "kind" ("mctstereo" or
 //     "opencv"), "width", "height", "num_disparities" (OpenCV: rounded up to a multiple of 16),
 //     "threads" (used), "frames" (timed), "median_ms", "p95_ms", "fps" (1000 / median_ms),
+//     "mean_ms" (the timed frames' total time over their count: 1000 / mean_ms is the frame rate
+//     sustained, which on a loaded CPU counts the frames that the OS preempted, as the median does not),
+//     "cpu_cores" (CPU seconds of this process per wall-clock second over the timed frames: the
+//     cores the method was given, waiting threads included; below "threads" under --load),
 //     "backend" (mctstereo only), "threads_requested" (the --threads value of the group),
 //     "warmup_frames", "stage_median_ms" (mctstereo only: the median over the timed frames of each
 //     entry of Matcher::timings(); reference and cpu: {"gray", "pyramid", "census", "match",
@@ -72,6 +76,7 @@
 #include <functional>
 #include <iostream>
 #include <limits>
+#include <numeric>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -114,6 +119,10 @@ threads that adapts them (no --fixed-threads) warms up at least 6 frames (with -
 its first 3 frames and its first trial of one thread, which are not its way.
 Times are wall-clock milliseconds per frame (median and 95th percentile); fps = 1000 / median;
 "x BM" = fps / fps of OpenCV StereoBM (blockSize 9) with the same size, range and threads.
+mean_ms = the timed frames' total time over their count (1000 / mean_ms: the frame rate
+sustained; under --load it counts the preempted frames that the median passes over);
+cores = CPU time of this process per second of the timed frames, waiting threads included: what
+the method was given (about its threads on an idle machine, less with --load).
 StereoSGBM: blockSize 5, MODE_SGBM_3WAY, P1 = 8*5*5, P2 = 32*5*5. OpenCV needs a multiple of 16
 disparities: it searches --num-disparities rounded up to one. Stage times are the medians of the
 matcher's own per-stage times (frame = the whole call).
@@ -233,6 +242,8 @@ struct Measurement {
   FrameSize size;
   int num_disparities = 0, threads_requested = 0, threads = 0, warmup = 0, frames = 0;
   double median_ms = 0, p95_ms = 0;
+  double mean_ms = 0;    // the timed frames' total over their count: the frame rate the method sustains
+  double cpu_cores = 0;  // TimedFrames::cpu_cores
   double ratio_to_stereobm = std::numeric_limits<double>::quiet_NaN();  // NaN: no StereoBM in the group
   std::vector<StageTime> stage_median_ms;                               // mctstereo only
   std::vector<LevelWork> work;  // host backends: the candidates the matching examined per level
@@ -264,14 +275,31 @@ FramePlan frame_plan(const FrameSize& size, bool reference_backend, int warmup, 
           std::max(least_frames, static_cast<int>(std::ceil(frames * scale)))};
 }
 
+// The frame times of a method, and the processor time its process got meanwhile.
+struct TimedFrames {
+  std::vector<double> ms;
+  // CPU seconds of this process (every thread, waiting ones included) per wall-clock second over
+  // the timed frames: near the thread count on an idle machine, less where other processes share
+  // the cores (--load), so that a loaded run shows what each method was given, not only its times.
+  double cpu_cores = 0;
+};
+
+double process_cpu_seconds() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return static_cast<double>(ts.tv_sec) + 1e-9 * static_cast<double>(ts.tv_nsec);
+}
+
 // Runs `frame` plan.warmup times, then at least plan.frames times and until `min_time_s` have
 // passed, calling `after_timed` after each timed frame (outside its time).
-std::vector<double> time_frames(const std::function<void()>& frame, const std::function<void()>& after_timed,
-                                const FramePlan& plan, double min_time_s) {
+TimedFrames time_frames(const std::function<void()>& frame, const std::function<void()>& after_timed,
+                        const FramePlan& plan, double min_time_s) {
   using Clock = std::chrono::steady_clock;
   for (int i = 0; i < plan.warmup; ++i) frame();
-  std::vector<double> ms;
+  TimedFrames timed;
+  std::vector<double>& ms = timed.ms;
   const auto start = Clock::now();
+  const double cpu_start = process_cpu_seconds();
   // A ceiling keeps a tiny frame size from running for millions of frames.
   const std::size_t ceiling = static_cast<std::size_t>(std::max(plan.frames, 10000));
   while (ms.size() < static_cast<std::size_t>(plan.frames) ||
@@ -281,7 +309,9 @@ std::vector<double> time_frames(const std::function<void()>& frame, const std::f
     ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
     if (after_timed) after_timed();
   }
-  return ms;
+  const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
+  timed.cpu_cores = wall_s > 0 ? (process_cpu_seconds() - cpu_start) / wall_s : 0.0;
+  return timed;
 }
 
 struct Settings {
@@ -616,19 +646,22 @@ struct Group {
 
 void print_row(const Measurement& m) {
   const std::string ratio = std::isnan(m.ratio_to_stereobm) ? "-" : fixed(m.ratio_to_stereobm, 3);
-  std::printf("%-10s %5d %4d  %-18s %-9s %10.3f %10.3f %9.1f %7s %7d\n", m.size.text().c_str(), m.num_disparities,
-              m.threads, m.method.c_str(), m.backend.empty() ? "-" : m.backend.c_str(), m.median_ms, m.p95_ms,
-              m.fps(), ratio.c_str(), m.frames);
+  std::printf("%-10s %5d %4d  %-18s %-9s %10.3f %10.3f %9.1f %7s %7d %10.3f %6.2f\n", m.size.text().c_str(),
+              m.num_disparities, m.threads, m.method.c_str(), m.backend.empty() ? "-" : m.backend.c_str(), m.median_ms,
+              m.p95_ms, m.fps(), ratio.c_str(), m.frames, m.mean_ms, m.cpu_cores);
   std::fflush(stdout);
 }
 
 // Completes a measurement with the frame times `ms` of its group, prints and keeps it.
-void record(Timing& t, Group& g, Measurement m, const std::vector<double>& ms) {
+void record(Timing& t, Group& g, Measurement m, const TimedFrames& timed) {
+  const std::vector<double>& ms = timed.ms;
   m.size = g.size;
+  m.cpu_cores = timed.cpu_cores;
   m.threads_requested = g.threads_requested;
   m.frames = static_cast<int>(ms.size());
   m.median_ms = median(ms);
   m.p95_ms = percentile(ms, 95.0);
+  m.mean_ms = std::accumulate(ms.begin(), ms.end(), 0.0) / static_cast<double>(ms.size());
   if (m.method == "opencv-stereobm") g.stereobm_fps = m.fps();
   m.ratio_to_stereobm = m.fps() / g.stereobm_fps;  // NaN without StereoBM
   t.progress.clear();
@@ -686,14 +719,14 @@ void time_preset(Timing& t, Group& g, const std::string& name, Backend backend, 
   m.num_disparities = g.num_disparities;
   m.threads = matcher.threads();
   m.warmup = plan.warmup;
-  const std::vector<double> ms =
+  const TimedFrames timed =
       time_frames([&] { method.compute(views); }, collect_stages, plan, t.setup.min_time_s);
   for (std::size_t s = 0; s < stage_ms.size(); ++s)
     m.stage_median_ms.push_back({matcher.timings()[s].stage, median(stage_ms[s])});
   m.work = matcher.level_work();
-  m.frames_run = plan.warmup + static_cast<long>(ms.size());
+  m.frames_run = plan.warmup + static_cast<long>(timed.ms.size());
   m.frames_alone = matcher.frames_alone();
-  record(t, g, std::move(m), ms);
+  record(t, g, std::move(m), timed);
 }
 
 // The source image at a frame size: resized (stretched), or repeated at its own size and cut.
@@ -716,8 +749,8 @@ cv::Mat fit_to(const cv::Mat& source, const FrameSize& size, bool tile) {
 // threaded or on the device, in the group of the first --threads value only).
 void time_groups(Timing& t, const cv::Mat& left_source, const cv::Mat& right_source) {
   const RunSetup& setup = t.setup;
-  std::printf("%-10s %5s %4s  %-18s %-9s %10s %10s %9s %7s %7s\n", "size", "disp", "thr", "method", "backend",
-              "median_ms", "p95_ms", "fps", "x BM", "frames");
+  std::printf("%-10s %5s %4s  %-18s %-9s %10s %10s %9s %7s %7s %10s %6s\n", "size", "disp", "thr", "method",
+              "backend", "median_ms", "p95_ms", "fps", "x BM", "frames", "mean_ms", "cores");
   std::fflush(stdout);
   for (const FrameSize& size : setup.sizes) {
     const cv::Mat left = fit_to(left_source, size, setup.tile), right = fit_to(right_source, size, setup.tile);
@@ -968,7 +1001,9 @@ Json measurement_json(const Measurement& m) {
   rec.set("frames", m.frames);
   rec.set("median_ms", m.median_ms);
   rec.set("p95_ms", m.p95_ms);
+  rec.set("mean_ms", m.mean_ms);
   rec.set("fps", m.fps());
+  rec.set("cpu_cores", m.cpu_cores);
   if (!m.backend.empty()) rec.set("backend", m.backend);
   rec.set("threads_requested", m.threads_requested);
   rec.set("warmup_frames", m.warmup);

@@ -221,6 +221,17 @@ TEST_F(BenchCli, ListsGiveOneRecordPerCombination) {
     EXPECT_GE(rec["frames"].number, 2);
     EXPECT_GT(rec["median_ms"].number, 0);
     EXPECT_GE(rec["p95_ms"].number, rec["median_ms"].number);
+    // Of two frames the mean is the median (the mean of the middle two), at most the larger frame
+    // (the 95th percentile by nearest rank) and at least half of it.
+    if (rec["frames"].number == 2) {
+      EXPECT_NEAR(rec["mean_ms"].number, rec["median_ms"].number, 1e-9 * rec["median_ms"].number);
+      EXPECT_LE(rec["mean_ms"].number, rec["p95_ms"].number);
+      EXPECT_GE(rec["mean_ms"].number, rec["p95_ms"].number / 2);
+    }
+    // The process's CPU time per wall-clock second: some, and with one thread at most one core's
+    // (a little over for the clocks' granularity).
+    EXPECT_GT(rec["cpu_cores"].number, 0.0);
+    if (rec["threads_requested"].number == 1) EXPECT_LE(rec["cpu_cores"].number, 1.25) << rec["method"].text;
     if (rec["method"].text == "opencv-stereobm") EXPECT_EQ(rec["ratio_to_stereobm"].number, 1.0);
     if (rec["kind"].text == "opencv") {
       EXPECT_FALSE(rec.has("stage_median_ms"));
