@@ -5,7 +5,6 @@
 #include <omp.h>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <optional>
 #include <stdexcept>
@@ -17,6 +16,7 @@
 #include "cpu/sgm_segments.hpp"
 #include "level_plan.hpp"
 #include "stages.hpp"
+#include "stopwatch.hpp"
 #ifdef MCTSTEREO_HAVE_OPENCL
 #include "opencl/pipeline.hpp"
 #endif
@@ -26,6 +26,7 @@ namespace mctstereo {
 using detail::CensusCodes;
 using detail::kInvalid;
 using detail::Plane;
+using detail::Stopwatch;
 
 namespace {
 
@@ -129,20 +130,6 @@ struct Level : detail::LevelSpec {
   Plane<std::int16_t> previous[2];
   Plane<std::uint8_t> previous_image[2];
   detail::SgmVolume sgm;  // band SGM: candidates, costs and sums (storage shared by the levels)
-};
-
-class Stopwatch {
- public:
-  void start() { t0_ = std::chrono::steady_clock::now(); }
-  double lap_ms() {
-    const auto t1 = std::chrono::steady_clock::now();
-    const double ms = std::chrono::duration<double, std::milli>(t1 - t0_).count();
-    t0_ = t1;
-    return ms;
-  }
-
- private:
-  std::chrono::steady_clock::time_point t0_;
 };
 
 // "wmedian" is the colour-weighted median with its 3x3 median (0 without them), apart from the

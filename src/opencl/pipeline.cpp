@@ -7,10 +7,10 @@
 #include "opencl/pipeline.hpp"
 
 #include "level_plan.hpp"
+#include "stopwatch.hpp"
 
 #include <algorithm>
 #include <array>
-#include <chrono>
 #include <map>
 #include <optional>
 #include <stdexcept>
@@ -19,21 +19,6 @@
 namespace mctstereo::detail::opencl {
 
 namespace {
-
-
-class Stopwatch {
- public:
-  Stopwatch() : t0_(std::chrono::steady_clock::now()) {}
-  double lap_ms() {
-    const auto t1 = std::chrono::steady_clock::now();
-    const double ms = std::chrono::duration<double, std::milli>(t1 - t0_).count();
-    t0_ = t1;
-    return ms;
-  }
-
- private:
-  std::chrono::steady_clock::time_point t0_;
-};
 
 // The stage times of a frame, in pipeline order; "frame" last. Kernel labels are those the stage
 // functions pass to Runtime::run; upload, speckle, download and frame are host wall times.
