@@ -652,7 +652,7 @@ void print_row(const Measurement& m) {
   std::fflush(stdout);
 }
 
-// Completes a measurement with the frame times `ms` of its group, prints and keeps it.
+// Completes a measurement with its timed frames (in its group), prints and keeps it.
 void record(Timing& t, Group& g, Measurement m, const TimedFrames& timed) {
   const std::vector<double>& ms = timed.ms;
   m.size = g.size;
