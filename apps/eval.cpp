@@ -739,20 +739,16 @@ std::string census_label(const Method& m) {
   return std::string(m.params.census == CensusKind::Census ? "CT " : "MCT ") + side + "x" + side;
 }
 
-// The exposure study: the table of steps x methods, each method's degradation, and the CT presets
-// against the MCT presets. Returns the "radiometric" block of the JSON report.
-Json report_study(const Evaluation& ev) {
-  const std::size_t b = ev.baseline;
+// study[m][k]: the average percent bad of method m over the scenes at step k.
+using StudyScores = std::vector<std::vector<double>>;
+
+// The table of steps x methods; its "steps" JSON block.
+Json print_study_table(const Evaluation& ev, const StudyScores& study) {
   const std::vector<RadiometricChange>& steps = ev.steps;
   const std::vector<Method>& methods = ev.methods;
-  // study[m][k]: the average percent bad of method m over the scenes at step k.
-  std::vector<std::vector<double>> study(methods.size(), std::vector<double>(steps.size()));
-  for (std::size_t m = 0; m < methods.size(); ++m)
-    for (std::size_t k = 0; k < steps.size(); ++k) study[m][k] = average_percent_bad(ev.column(m, k));
-
   std::printf("\nExposure study: the right image changed, the left one not; cell = average percent bad (mean of the "
               "%d v2 numbers, > %s px)\n%-16s",
-              v2_number_count(ev.column(0, b)), fixed(ev.threshold, 2).c_str(), "step");
+              v2_number_count(ev.column(0, ev.baseline)), fixed(ev.threshold, 2).c_str(), "step");
   std::vector<int> widths;
   for (const Method& m : methods) {
     widths.push_back(std::max<int>(8, static_cast<int>(m.name.size())));
@@ -775,14 +771,18 @@ Json report_study(const Evaluation& ev) {
     j.set("scores", std::move(scores));
     steps_json.push_back(std::move(j));
   }
+  return steps_json;
+}
 
+// Each method's degradation from the baseline, printed and into `summary_json`.
+std::vector<Degradation> print_degradation(const Evaluation& ev, const StudyScores& study, Json& summary_json) {
+  const std::vector<Method>& methods = ev.methods;
   std::printf("\n%-18s %-8s %9s %9s %-16s %9s %9s %9s\n", "method", "census", "baseline", "worst", "worst step", "mean",
               "worst+", "mean+");
-  Json summary_json = Json::array();
   std::vector<Degradation> degradation;
   for (std::size_t m = 0; m < methods.size(); ++m) {
-    const Degradation d = degradation.emplace_back(summarize_degradation(study[m], b));
-    const std::string worst_step = steps[d.worst_step].label();
+    const Degradation d = degradation.emplace_back(summarize_degradation(study[m], ev.baseline));
+    const std::string worst_step = ev.steps[d.worst_step].label();
     std::printf("%-18s %-8s %9s %9s %-16s %9s %9s %9s\n", methods[m].name.c_str(), census_label(methods[m]).c_str(),
                 fixed(d.baseline, 2).c_str(), fixed(d.worst, 2).c_str(), worst_step.c_str(), fixed(d.mean, 2).c_str(),
                 signed_fixed(d.worst_degradation, 2).c_str(), signed_fixed(d.mean_degradation, 2).c_str());
@@ -800,64 +800,86 @@ Json report_study(const Evaluation& ev) {
   }
   std::printf("worst+, mean+: points of percent bad above the baseline (the unchanged pair); mean over the %zu "
               "changes.\n",
-              steps.size() - 1);
+              ev.steps.size() - 1);
+  return degradation;
+}
 
-  // The CT presets against the MCT presets: each group's numbers are the means over its presets.
-  struct Group {
-    std::vector<std::size_t> members;
-    double mean_degradation = 0.0, worst_degradation = 0.0;
-    std::string names;
-  };
-  std::array<Group, 2> groups;  // 0: CT, 1: MCT
+// The presets of one census variant in the study: each number is the mean over its presets.
+struct CensusGroup {
+  std::vector<std::size_t> members;
+  double mean_degradation = 0.0, worst_degradation = 0.0;
+  std::string names;
+};
+
+// The CT presets against the MCT presets: the conclusion, printed and returned; by kind of change
+// (each group's mean of score - baseline over the steps of that kind) into `by_change`.
+std::string compare_census_variants(const Evaluation& ev, const StudyScores& study,
+                                    const std::vector<Degradation>& degradation, Json& by_change) {
+  const std::vector<Method>& methods = ev.methods;
+  std::array<CensusGroup, 2> groups;  // 0: CT, 1: MCT
   for (std::size_t m = 0; m < ev.preset_count; ++m)
     groups[methods[m].params.census == CensusKind::Census ? 0 : 1].members.push_back(m);
-  for (Group& g : groups)
+  for (CensusGroup& g : groups)
     for (std::size_t m : g.members) {
       g.mean_degradation += degradation[m].mean_degradation / g.members.size();
       g.worst_degradation += degradation[m].worst_degradation / g.members.size();
       g.names += (g.names.empty() ? "" : ", ") + methods[m].name;
     }
-  std::string conclusion;
-  Json by_change = Json::object();
   if (groups[0].members.empty() || groups[1].members.empty()) {
-    conclusion = std::string("Only ") + (groups[0].members.empty() ? "MCT" : "CT") +
-                 " presets were run: no comparison of the census variants (run every preset, or list CT and MCT "
-                 "presets in --preset).";
-  } else {
-    const bool mct_better = groups[1].mean_degradation < groups[0].mean_degradation;
-    const Group& better = groups[mct_better ? 1 : 0];
-    const Group& worse = groups[mct_better ? 0 : 1];
-    conclusion = std::string(mct_better ? "MCT" : "CT") + " presets (" + better.names + ") degrade least: " +
-                 fixed(better.mean_degradation, 2) + " points of percent bad on average over the changes (worst " +
-                 fixed(better.worst_degradation, 2) + "), against " + fixed(worse.mean_degradation, 2) + " (worst " +
-                 fixed(worse.worst_degradation, 2) + ") for the " + (mct_better ? "CT" : "MCT") + " presets (" +
-                 worse.names + "): " + fixed(worse.mean_degradation - better.mean_degradation, 2) +
-                 " points less on average, and " +
-                 fixed(std::fabs(worse.worst_degradation - better.worst_degradation), 2) +
-                 (better.worst_degradation <= worse.worst_degradation ? " less" : " more") + " at the worst step.";
-    // By kind of change: each group's mean of (score - baseline) over the steps of that kind.
-    std::string by_kind;
-    for (RadiometricKind kind : {RadiometricKind::Gain, RadiometricKind::Bias, RadiometricKind::Gamma,
-                                 RadiometricKind::Vignetting, RadiometricKind::Noise}) {
-      std::array<double, 2> mean{0.0, 0.0};
-      int count = 0;
-      for (std::size_t k = 0; k < steps.size(); ++k) {
-        if (steps[k].kind != kind) continue;
-        ++count;
-        for (int g = 0; g < 2; ++g)
-          for (std::size_t m : groups[g].members) mean[g] += (study[m][k] - study[m][b]) / groups[g].members.size();
-      }
-      if (count == 0) continue;
-      Json j = Json::object();
-      j.set("ct", mean[0] / count);
-      j.set("mct", mean[1] / count);
-      by_change.set(radiometric_kind_name(kind), std::move(j));
-      by_kind += (by_kind.empty() ? "" : ", ") + std::string(radiometric_kind_name(kind)) + " " +
-                 signed_fixed(mean[0] / count, 2) + " / " + signed_fixed(mean[1] / count, 2);
-    }
-    std::printf("mean degradation by change, CT / MCT presets: %s\n", by_kind.c_str());
+    const std::string conclusion = std::string("Only ") + (groups[0].members.empty() ? "MCT" : "CT") +
+                                   " presets were run: no comparison of the census variants (run every preset, or "
+                                   "list CT and MCT presets in --preset).";
+    std::printf("%s\n", conclusion.c_str());
+    return conclusion;
   }
+  const bool mct_better = groups[1].mean_degradation < groups[0].mean_degradation;
+  const CensusGroup& better = groups[mct_better ? 1 : 0];
+  const CensusGroup& worse = groups[mct_better ? 0 : 1];
+  const std::string conclusion =
+      std::string(mct_better ? "MCT" : "CT") + " presets (" + better.names + ") degrade least: " +
+      fixed(better.mean_degradation, 2) + " points of percent bad on average over the changes (worst " +
+      fixed(better.worst_degradation, 2) + "), against " + fixed(worse.mean_degradation, 2) + " (worst " +
+      fixed(worse.worst_degradation, 2) + ") for the " + (mct_better ? "CT" : "MCT") + " presets (" + worse.names +
+      "): " + fixed(worse.mean_degradation - better.mean_degradation, 2) + " points less on average, and " +
+      fixed(std::fabs(worse.worst_degradation - better.worst_degradation), 2) +
+      (better.worst_degradation <= worse.worst_degradation ? " less" : " more") + " at the worst step.";
+  std::string by_kind;
+  for (RadiometricKind kind : {RadiometricKind::Gain, RadiometricKind::Bias, RadiometricKind::Gamma,
+                               RadiometricKind::Vignetting, RadiometricKind::Noise}) {
+    std::array<double, 2> mean{0.0, 0.0};
+    int count = 0;
+    for (std::size_t k = 0; k < ev.steps.size(); ++k) {
+      if (ev.steps[k].kind != kind) continue;
+      ++count;
+      for (int g = 0; g < 2; ++g)
+        for (std::size_t m : groups[g].members)
+          mean[g] += (study[m][k] - study[m][ev.baseline]) / groups[g].members.size();
+    }
+    if (count == 0) continue;
+    Json j = Json::object();
+    j.set("ct", mean[0] / count);
+    j.set("mct", mean[1] / count);
+    by_change.set(radiometric_kind_name(kind), std::move(j));
+    by_kind += (by_kind.empty() ? "" : ", ") + std::string(radiometric_kind_name(kind)) + " " +
+               signed_fixed(mean[0] / count, 2) + " / " + signed_fixed(mean[1] / count, 2);
+  }
+  std::printf("mean degradation by change, CT / MCT presets: %s\n", by_kind.c_str());
   std::printf("%s\n", conclusion.c_str());
+  return conclusion;
+}
+
+// The exposure study: the table of steps x methods, each method's degradation, and the CT presets
+// against the MCT presets. Returns the "radiometric" block of the JSON report.
+Json report_study(const Evaluation& ev) {
+  StudyScores study(ev.methods.size(), std::vector<double>(ev.steps.size()));
+  for (std::size_t m = 0; m < ev.methods.size(); ++m)
+    for (std::size_t k = 0; k < ev.steps.size(); ++k) study[m][k] = average_percent_bad(ev.column(m, k));
+
+  Json steps_json = print_study_table(ev, study);
+  Json summary_json = Json::array();
+  const std::vector<Degradation> degradation = print_degradation(ev, study, summary_json);
+  Json by_change = Json::object();
+  const std::string conclusion = compare_census_variants(ev, study, degradation, by_change);
 
   Json study_json = Json::object();
   study_json.set("headline", "average percent bad: the mean of the v2 numbers (bad > threshold in nonocc, all, disc) "

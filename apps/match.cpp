@@ -189,42 +189,35 @@ std::string MatchCommand::report_rectification(const cv::Mat& left, const cv::Ma
   return line.str();
 }
 
-void MatchCommand::run() const {
-  const StereoParams requested = parameters_.resolve();
-  check_parameters(requested);
-  (void)run_flags_.parsed_backend();  // a misspelt backend or misplaced --device costs no image reading
-
-  // Every check that needs no pixels comes first, so a mistake costs no matching.
-  if (output_.empty()) {
-    if (!check_rectification_)
-      throw UsageError("-o,--output is required: give the disparity file to write (or --check-rectification alone "
-                       "to only measure the rectification)");
-    if (!right_output_.empty() || !preview_.empty() || !depth_output_.empty() || !ply_output_.empty() ||
-        !obj_output_.empty() || !confidence_.empty())
-      throw UsageError("-o,--output is required with --right-output, --color, --confidence, --depth, --ply and --obj");
-    const cv::Mat left = read_input_image(left_, "left image");
-    const cv::Mat right = read_input_image(right_, "right image");
-    check_pair_size(left, right, left_, right_);
-    const std::optional<Calibration> calibration =
-        calibration_flags_.resolve(left.cols, left.rows, "left image " + in_quotes(left_));
-    std::cout << report_rectification(left, right, "the input pair") << "\n";
-    if (calibration && calibration->needs_rectification) {
-      const Rectifier rectifier(*calibration, left.cols, left.rows);
-      cv::Mat left_rectified, right_rectified;
-      rectifier.rectify(left, right, left_rectified, right_rectified);
-      std::cout << report_rectification(left_rectified, right_rectified,
-                                        "the pair rectified with " + in_quotes(calibration->source))
-                << "\n";
-    }
-    return;
+void MatchCommand::report_rectification_only() const {
+  if (!right_output_.empty() || !preview_.empty() || !depth_output_.empty() || !ply_output_.empty() ||
+      !obj_output_.empty() || !confidence_.empty())
+    throw UsageError("-o,--output is required with --right-output, --color, --confidence, --depth, --ply and --obj");
+  const cv::Mat left = read_input_image(left_, "left image");
+  const cv::Mat right = read_input_image(right_, "right image");
+  check_pair_size(left, right, left_, right_);
+  const std::optional<Calibration> calibration =
+      calibration_flags_.resolve(left.cols, left.rows, "left image " + in_quotes(left_));
+  std::cout << report_rectification(left, right, "the input pair") << "\n";
+  if (calibration && calibration->needs_rectification) {
+    const Rectifier rectifier(*calibration, left.cols, left.rows);
+    cv::Mat left_rectified, right_rectified;
+    rectifier.rectify(left, right, left_rectified, right_rectified);
+    std::cout << report_rectification(left_rectified, right_rectified,
+                                      "the pair rectified with " + in_quotes(calibration->source))
+              << "\n";
   }
+}
+
+MatchCommand::OutputFormats MatchCommand::check_outputs(const StereoParams& requested) const {
   std::vector<std::string> inputs = {left_, right_};
   for (const std::string& file : calibration_flags_.files()) inputs.push_back(file);
-  const DisparityFormat format = disparity_format_for(output_, format_);
+  OutputFormats formats;
+  formats.left = disparity_format_for(output_, format_);
   check_output_path(output_, inputs, "disparity output");
-  DisparityFormat right_format = format;
+  formats.right = formats.left;
   if (!right_output_.empty()) {
-    right_format = disparity_format_for(right_output_, format_);
+    formats.right = disparity_format_for(right_output_, format_);
     check_output_path(right_output_, inputs, "right disparity output");
   }
   if (!preview_.empty()) {
@@ -237,10 +230,9 @@ void MatchCommand::run() const {
   }
   // Depth and point clouds: their paths and whether the calibration they need was given.
   const bool calibrated = calibration_flags_.given();
-  DepthFormat depth_format = DepthFormat::Pfm;
   if (!depth_output_.empty()) {
-    depth_format = depth_format_for(depth_output_);
-    if (depth_format == DepthFormat::PngMillimetres && !calibrated)
+    formats.depth = depth_format_for(depth_output_);
+    if (formats.depth == DepthFormat::PngMillimetres && !calibrated)
       throw UsageError("--depth " + in_quotes(depth_output_) +
                        ": a PNG depth map holds millimetres and needs a calibration: give --calib FILE or --focal and "
                        "--baseline (or write relative depth 1/d to a .pfm file)");
@@ -267,55 +259,50 @@ void MatchCommand::run() const {
                           {"--depth", depth_output_},
                           {"--ply", ply_output_},
                           {"--obj", obj_output_}});
-  check_format_range(format, requested, output_);
-  if (!right_output_.empty()) check_format_range(right_format, requested, right_output_);
+  check_format_range(formats.left, requested, output_);
+  if (!right_output_.empty()) check_format_range(formats.right, requested, right_output_);
+  return formats;
+}
 
+MatchCommand::InputPair MatchCommand::read_pair(const StereoParams& requested, const OutputFormats& formats) const {
   const cv::Mat input_left = read_input_image(left_, "left image");
   const cv::Mat input_right = read_input_image(right_, "right image");
   check_pair_size(input_left, input_right, left_, right_);
   check_parameters(requested, input_left.cols, input_left.rows);
-  std::optional<Calibration> calibration =
-      calibration_flags_.resolve(input_left.cols, input_left.rows, "left image " + in_quotes(left_));
+  InputPair pair;
+  std::optional<Calibration>& calibration = pair.calibration;
+  calibration = calibration_flags_.resolve(input_left.cols, input_left.rows, "left image " + in_quotes(left_));
   // A calibration of the raw cameras: the pair is remapped into the rectified frame first, and its
   // geometry (focal, principal point, baseline) becomes that of the rectified cameras.
-  cv::Mat left = input_left, right = input_right;
-  std::string rectified_note;
   if (calibration && calibration->needs_rectification) {
     if (check_rectification_) std::cout << report_rectification(input_left, input_right, "the input pair") << "\n";
     const Rectifier rectifier(*calibration, input_left.cols, input_left.rows);
-    rectifier.rectify(input_left, input_right, left, right);
+    rectifier.rectify(input_left, input_right, pair.left, pair.right);
     calibration->geometry = rectifier.geometry();
-    rectified_note = ", rectified with " + in_quotes(calibration->source);
+    pair.rectified_note = ", rectified with " + in_quotes(calibration->source);
+  } else {
+    pair.left = input_left;
+    pair.right = input_right;
   }
   if (check_rectification_)
-    std::cout << report_rectification(left, right, rectified_note.empty() ? "the input pair" : "the rectified pair")
+    std::cout << report_rectification(pair.left, pair.right,
+                                      pair.rectified_note.empty() ? "the input pair" : "the rectified pair")
               << "\n";
-  if (calibration && !depth_output_.empty() && depth_format == DepthFormat::PngMillimetres)
+  if (calibration && !depth_output_.empty() && formats.depth == DepthFormat::PngMillimetres)
     (void)millimetres_per_unit(calibration->geometry.units);  // a unit a PNG of millimetres cannot convert
+  return pair;
+}
 
-  Matcher matcher =
-      run_flags_.make_matcher(left.cols, left.rows, requested, !right_output_.empty(), !confidence_.empty());
+std::string MatchCommand::queue_outputs(const Matcher& matcher, const OutputFormats& formats, const InputPair& pair,
+                                        PendingOutputs& outputs) const {
   const StereoParams& params = matcher.params();
-
-  // Stage times per frame; with --repeat each stage reports its median over the frames.
-  std::vector<std::string> stage_order;
-  std::map<std::string, std::vector<double>> stage_ms;
-  for (int frame = 0; frame < repeat_; ++frame) {
-    matcher.compute(image_view(left), image_view(right));
-    for (const StageTime& t : matcher.timings()) {
-      if (frame == 0) stage_order.push_back(t.stage);
-      stage_ms[t.stage].push_back(t.ms);
-    }
-  }
-
-  PendingOutputs outputs;
   const std::int16_t invalid = matcher.invalid_q4();
-  outputs.add(output_, encode_disparity(matcher.disparity_q4(), invalid, params.min_disparity, format));
-  std::string wrote = output_ + " (" + describe_format(format, params.min_disparity) + ")";
+  outputs.add(output_, encode_disparity(matcher.disparity_q4(), invalid, params.min_disparity, formats.left));
+  std::string wrote = output_ + " (" + describe_format(formats.left, params.min_disparity) + ")";
   if (!right_output_.empty()) {
     outputs.add(right_output_,
-                encode_disparity(matcher.right_disparity_q4(), invalid, params.min_disparity, right_format));
-    wrote += ", " + right_output_ + " (right view, " + describe_format(right_format, params.min_disparity) + ")";
+                encode_disparity(matcher.right_disparity_q4(), invalid, params.min_disparity, formats.right));
+    wrote += ", " + right_output_ + " (right view, " + describe_format(formats.right, params.min_disparity) + ")";
   }
   if (!preview_.empty()) {
     outputs.add(preview_, encode_preview(matcher.disparity_q4(), invalid, params.min_disparity,
@@ -327,7 +314,44 @@ void MatchCommand::run() const {
     wrote += ", " + confidence_ + " (confidence, 0 to 1" + (lower_extension(confidence_) == ".png" ? " as 0 to 255)" : ")");
   }
   if (!depth_output_.empty() || !ply_output_.empty() || !obj_output_.empty())
-    wrote += write_depth_outputs(matcher.disparity_q4(), invalid, left, calibration, outputs);
+    wrote += write_depth_outputs(matcher.disparity_q4(), invalid, pair.left, pair.calibration, outputs);
+  return wrote;
+}
+
+void MatchCommand::run() const {
+  const StereoParams requested = parameters_.resolve();
+  check_parameters(requested);
+  (void)run_flags_.parsed_backend();  // a misspelt backend or misplaced --device costs no image reading
+
+  // Every check that needs no pixels comes first, so a mistake costs no matching.
+  if (output_.empty()) {
+    if (!check_rectification_)
+      throw UsageError("-o,--output is required: give the disparity file to write (or --check-rectification alone "
+                       "to only measure the rectification)");
+    report_rectification_only();
+    return;
+  }
+  const OutputFormats formats = check_outputs(requested);
+  const InputPair pair = read_pair(requested, formats);
+  const cv::Mat& left = pair.left;
+
+  Matcher matcher =
+      run_flags_.make_matcher(left.cols, left.rows, requested, !right_output_.empty(), !confidence_.empty());
+  const StereoParams& params = matcher.params();
+
+  // Stage times per frame; with --repeat each stage reports its median over the frames.
+  std::vector<std::string> stage_order;
+  std::map<std::string, std::vector<double>> stage_ms;
+  for (int frame = 0; frame < repeat_; ++frame) {
+    matcher.compute(image_view(left), image_view(pair.right));
+    for (const StageTime& t : matcher.timings()) {
+      if (frame == 0) stage_order.push_back(t.stage);
+      stage_ms[t.stage].push_back(t.ms);
+    }
+  }
+
+  PendingOutputs outputs;
+  const std::string wrote = queue_outputs(matcher, formats, pair, outputs);
   outputs.commit();
 
   std::string stages;
@@ -341,10 +365,9 @@ void MatchCommand::run() const {
                                 : ", SIMD " + matcher.simd_target() + ", threads " + std::to_string(matcher.threads());
   std::cout << left.cols << "x" << left.rows << ", disparities " << params.min_disparity << ".."
             << params.max_disparity() << " (" << params.num_disparities << "), preset "
-            << parameters_.preset_name() << rectified_note << ", backend " << to_string(matcher.backend()) << where << "; ms:"
-            << stages << "; frame "
-            << frame << "; valid " << fixed(valid_percent(matcher.disparity_q4(), invalid), 1)
-            << " %; wrote " << wrote << "\n";
+            << parameters_.preset_name() << pair.rectified_note << ", backend " << to_string(matcher.backend())
+            << where << "; ms:" << stages << "; frame " << frame << "; valid "
+            << fixed(valid_percent(matcher.disparity_q4(), matcher.invalid_q4()), 1) << " %; wrote " << wrote << "\n";
 }
 
 }  // namespace mctstereo::app

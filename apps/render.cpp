@@ -130,6 +130,138 @@ std::string point_text(const cv::Vec3d& p) {
   return "(" + fixed(p[0], 3) + ", " + fixed(p[1], 3) + ", " + fixed(p[2], 3) + ")";
 }
 
+
+cv::Vec3d point_of(const PointCloud& cloud, std::size_t i) {
+  return {cloud.xyz[3 * i], cloud.xyz[3 * i + 1], cloud.xyz[3 * i + 2]};
+}
+
+// The indices of the points whose three coordinates are finite.
+std::vector<std::size_t> finite_points(const PointCloud& cloud) {
+  std::vector<std::size_t> finite;
+  finite.reserve(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    if (std::isfinite(cloud.xyz[3 * i]) && std::isfinite(cloud.xyz[3 * i + 1]) && std::isfinite(cloud.xyz[3 * i + 2]))
+      finite.push_back(i);
+  return finite;
+}
+
+// Where the view camera stands and how it is turned.
+struct ViewPose {
+  cv::Vec3d centre;          // what it looks at: the median of each coordinate, which stray points do not move
+  cv::Vec3d offset;          // from the centre to the original camera (or behind a cloud centred on it)
+  cv::Vec3d camera;          // its position
+  cv::Matx33d world_to_camera;
+};
+
+ViewPose view_pose(const PointCloud& cloud, const std::vector<std::size_t>& finite, double yaw_degrees,
+                   double pitch_degrees, double distance) {
+  ViewPose pose;
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double> coordinate;
+    coordinate.reserve(finite.size());
+    for (std::size_t i : finite) coordinate.push_back(cloud.xyz[3 * i + axis]);
+    pose.centre[axis] = median(coordinate);
+  }
+  // From the centre to the original camera (the origin); a cloud centred on the origin is seen
+  // from behind it, from twice its median radius.
+  pose.offset = -pose.centre;
+  if (cv::norm(pose.offset) < 1e-12) {
+    std::vector<double> radius;
+    for (std::size_t i : finite) radius.push_back(cv::norm(point_of(cloud, i) - pose.centre));
+    const double r = median(radius);
+    pose.offset = {0, 0, -2.0 * (r > 0 ? r : 1.0)};
+  }
+  constexpr double kDegree = 3.14159265358979323846 / 180.0;
+  const cv::Matx33d turn = rotation_about_y(yaw_degrees * kDegree) * rotation_about_x(pitch_degrees * kDegree);
+  pose.world_to_camera = (turn * looking_along(-pose.offset)).t();
+  pose.camera = pose.centre + distance * (turn * pose.offset);
+  return pose;
+}
+
+// The points in the view camera's frame, with their indices in the cloud; those behind it (or at
+// it) are left out.
+struct PointsInView {
+  std::vector<cv::Vec3d> xyz;
+  std::vector<std::size_t> source;
+};
+
+PointsInView to_camera(const PointCloud& cloud, const std::vector<std::size_t>& finite, const ViewPose& pose,
+                       double distance) {
+  const double near = 1e-6 * cv::norm(pose.offset) * distance;
+  PointsInView points;
+  points.xyz.reserve(finite.size());
+  points.source.reserve(finite.size());
+  for (std::size_t i : finite) {
+    const cv::Vec3d p = pose.world_to_camera * (point_of(cloud, i) - pose.camera);
+    if (p[2] > near) {
+      points.xyz.push_back(p);
+      points.source.push_back(i);
+    }
+  }
+  return points;
+}
+
+// A focal length that fits 99.5 % of the points into the picture, with a margin of 5 % on each
+// side: a few stray points (mismatches) do not shrink the view.
+double fitting_focal(const std::vector<cv::Vec3d>& in_camera, cv::Size size) {
+  std::vector<double> spread_x, spread_y;
+  for (const cv::Vec3d& p : in_camera) {
+    spread_x.push_back(std::abs(p[0] / p[2]));
+    spread_y.push_back(std::abs(p[1] / p[2]));
+  }
+  const double sx = percentile(spread_x, 99.5), sy = percentile(spread_y, 99.5);
+  const double focal = std::min(sx > 0 ? 0.45 * size.width / sx : 1e30, sy > 0 ? 0.45 * size.height / sy : 1e30);
+  return focal < 1e29 ? focal : std::max(size.width, size.height);
+}
+
+// Draws each point as a square of point_size pixels, the nearest point winning each pixel: in its
+// colour, or for a cloud without colours in gray by depth (nearer is lighter, over the 2nd to 98th
+// percentile). Returns the number of points whose centre fell in the picture.
+std::size_t draw_points(const PointCloud& cloud, const PointsInView& points, double focal, int point_size,
+                        cv::Mat& picture) {
+  const cv::Size size = picture.size();
+  double near_depth = 0, far_depth = 0;
+  if (cloud.rgb.empty() && !points.xyz.empty()) {
+    std::vector<double> depths;
+    depths.reserve(points.xyz.size());
+    for (const cv::Vec3d& p : points.xyz) depths.push_back(p[2]);
+    near_depth = percentile(depths, 2.0);
+    far_depth = percentile(depths, 98.0);
+  }
+  const auto gray_of_depth = [&](double z) {
+    const double t = far_depth > near_depth ? std::clamp((z - near_depth) / (far_depth - near_depth), 0.0, 1.0) : 0.0;
+    const auto level = static_cast<std::uint8_t>(std::lround(230.0 - 140.0 * t));
+    return cv::Vec3b(level, level, level);
+  };
+
+  const double cx = 0.5 * (size.width - 1), cy = 0.5 * (size.height - 1);
+  const std::size_t pixels = static_cast<std::size_t>(size.width) * size.height;
+  std::vector<double> depth(pixels, std::numeric_limits<double>::infinity());
+  const int lo = -(point_size - 1) / 2, hi = point_size / 2;
+  std::size_t in_view = 0;
+  for (std::size_t n = 0; n < points.xyz.size(); ++n) {
+    const cv::Vec3d& p = points.xyz[n];
+    const double u = focal * p[0] / p[2] + cx, v = focal * p[1] / p[2] + cy;
+    if (!(u > -point_size - 1.0 && u < size.width + point_size && v > -point_size - 1.0 &&
+          v < size.height + point_size))
+      continue;
+    const int ui = static_cast<int>(std::floor(u + 0.5)), vi = static_cast<int>(std::floor(v + 0.5));
+    const std::size_t i = points.source[n];
+    const std::uint8_t* rgb = cloud.rgb.empty() ? nullptr : &cloud.rgb[3 * i];
+    const cv::Vec3b colour = rgb ? cv::Vec3b(rgb[2], rgb[1], rgb[0]) : gray_of_depth(p[2]);
+    in_view += ui >= 0 && ui < size.width && vi >= 0 && vi < size.height ? 1 : 0;
+    for (int y = std::max(vi + lo, 0); y <= std::min(vi + hi, size.height - 1); ++y)
+      for (int x = std::max(ui + lo, 0); x <= std::min(ui + hi, size.width - 1); ++x) {
+        double& nearest = depth[static_cast<std::size_t>(y) * size.width + x];
+        if (p[2] < nearest) {
+          nearest = p[2];
+          picture.at<cv::Vec3b>(y, x) = colour;
+        }
+      }
+  }
+  return in_view;
+}
+
 }  // namespace
 
 RenderCommand::RenderCommand(CLI::App& parent)
@@ -170,107 +302,14 @@ void RenderCommand::run() const {
     throw UsageError("-o " + in_quotes(output_) + ": cannot write an image with this extension (use .png or .jpg)");
 
   const PointCloud cloud = read_cloud(cloud_);
-  std::vector<std::size_t> finite;
-  finite.reserve(cloud.size());
-  for (std::size_t i = 0; i < cloud.size(); ++i)
-    if (std::isfinite(cloud.xyz[3 * i]) && std::isfinite(cloud.xyz[3 * i + 1]) && std::isfinite(cloud.xyz[3 * i + 2]))
-      finite.push_back(i);
+  const std::vector<std::size_t> finite = finite_points(cloud);
   if (finite.empty()) throw RuntimeError("point cloud " + in_quotes(cloud_) + " has no finite points");
 
-  // The centre: the median of each coordinate, which stray points do not move.
-  cv::Vec3d centre;
-  for (int axis = 0; axis < 3; ++axis) {
-    std::vector<double> coordinate;
-    coordinate.reserve(finite.size());
-    for (std::size_t i : finite) coordinate.push_back(cloud.xyz[3 * i + axis]);
-    centre[axis] = median(coordinate);
-  }
-  // From the centre to the original camera (the origin); a cloud centred on the origin is seen
-  // from behind it, from twice its median radius.
-  cv::Vec3d offset = -centre;
-  if (cv::norm(offset) < 1e-12) {
-    std::vector<double> radius;
-    for (std::size_t i : finite)
-      radius.push_back(cv::norm(cv::Vec3d(cloud.xyz[3 * i], cloud.xyz[3 * i + 1], cloud.xyz[3 * i + 2]) - centre));
-    const double r = median(radius);
-    offset = {0, 0, -2.0 * (r > 0 ? r : 1.0)};
-  }
-  constexpr double kDegree = 3.14159265358979323846 / 180.0;
-  const cv::Matx33d turn = rotation_about_y(yaw_ * kDegree) * rotation_about_x(pitch_ * kDegree);
-  const cv::Matx33d camera_to_world = turn * looking_along(-offset);
-  const cv::Matx33d world_to_camera = camera_to_world.t();
-  const cv::Vec3d camera = centre + distance_ * (turn * offset);
-
-  // Points in the view camera's frame; those behind it (or at it) are not drawn.
-  const double near = 1e-6 * cv::norm(offset) * distance_;
-  std::vector<cv::Vec3d> in_camera;
-  std::vector<std::size_t> source;
-  in_camera.reserve(finite.size());
-  source.reserve(finite.size());
-  for (std::size_t i : finite) {
-    const cv::Vec3d p = world_to_camera * (cv::Vec3d(cloud.xyz[3 * i], cloud.xyz[3 * i + 1], cloud.xyz[3 * i + 2]) -
-                                           camera);
-    if (p[2] > near) {
-      in_camera.push_back(p);
-      source.push_back(i);
-    }
-  }
-
-  const double cx = 0.5 * (size.width - 1), cy = 0.5 * (size.height - 1);
-  double focal = focal_;
-  if (focal <= 0.0) {
-    // Fit 99.5 % of the points into the picture, with a margin of 5 % on each side: a few stray
-    // points (mismatches) do not shrink the view.
-    std::vector<double> spread_x, spread_y;
-    for (const cv::Vec3d& p : in_camera) {
-      spread_x.push_back(std::abs(p[0] / p[2]));
-      spread_y.push_back(std::abs(p[1] / p[2]));
-    }
-    const double sx = percentile(spread_x, 99.5), sy = percentile(spread_y, 99.5);
-    focal = std::min(sx > 0 ? 0.45 * size.width / sx : 1e30, sy > 0 ? 0.45 * size.height / sy : 1e30);
-    if (!(focal < 1e29)) focal = std::max(size.width, size.height);
-  }
-
-  // Gray by depth for clouds without colours: nearer is lighter, over the 2nd to 98th percentile.
-  double near_depth = 0, far_depth = 0;
-  if (cloud.rgb.empty() && !in_camera.empty()) {
-    std::vector<double> depths;
-    depths.reserve(in_camera.size());
-    for (const cv::Vec3d& p : in_camera) depths.push_back(p[2]);
-    near_depth = percentile(depths, 2.0);
-    far_depth = percentile(depths, 98.0);
-  }
-  const auto gray_of_depth = [&](double z) {
-    const double t = far_depth > near_depth ? std::clamp((z - near_depth) / (far_depth - near_depth), 0.0, 1.0) : 0.0;
-    const auto level = static_cast<std::uint8_t>(std::lround(230.0 - 140.0 * t));
-    return cv::Vec3b(level, level, level);
-  };
-
+  const ViewPose pose = view_pose(cloud, finite, yaw_, pitch_, distance_);
+  const PointsInView points = to_camera(cloud, finite, pose, distance_);
+  const double focal = focal_ > 0.0 ? focal_ : fitting_focal(points.xyz, size);
   cv::Mat picture(size, CV_8UC3, cv::Scalar(background[0], background[1], background[2]));
-  const std::size_t pixels = static_cast<std::size_t>(size.width) * size.height;
-  std::vector<double> depth(pixels, std::numeric_limits<double>::infinity());
-  const int lo = -(point_size_ - 1) / 2, hi = point_size_ / 2;
-  std::size_t in_view = 0;
-  for (std::size_t n = 0; n < in_camera.size(); ++n) {
-    const cv::Vec3d& p = in_camera[n];
-    const double u = focal * p[0] / p[2] + cx, v = focal * p[1] / p[2] + cy;
-    if (!(u > -point_size_ - 1.0 && u < size.width + point_size_ && v > -point_size_ - 1.0 &&
-          v < size.height + point_size_))
-      continue;
-    const int ui = static_cast<int>(std::floor(u + 0.5)), vi = static_cast<int>(std::floor(v + 0.5));
-    const std::size_t i = source[n];
-    const std::uint8_t* rgb = cloud.rgb.empty() ? nullptr : &cloud.rgb[3 * i];
-    const cv::Vec3b colour = rgb ? cv::Vec3b(rgb[2], rgb[1], rgb[0]) : gray_of_depth(p[2]);
-    in_view += ui >= 0 && ui < size.width && vi >= 0 && vi < size.height ? 1 : 0;
-    for (int y = std::max(vi + lo, 0); y <= std::min(vi + hi, size.height - 1); ++y)
-      for (int x = std::max(ui + lo, 0); x <= std::min(ui + hi, size.width - 1); ++x) {
-        double& nearest = depth[static_cast<std::size_t>(y) * size.width + x];
-        if (p[2] < nearest) {
-          nearest = p[2];
-          picture.at<cv::Vec3b>(y, x) = colour;
-        }
-      }
-  }
+  const std::size_t in_view = draw_points(cloud, points, focal, point_size_, picture);
 
   std::vector<std::uint8_t> bytes;
   if (!cv::imencode(fs::path(output_).extension().string(), picture, bytes))
@@ -280,7 +319,7 @@ void RenderCommand::run() const {
   outputs.commit();
   std::cout << cloud_ << ": " << cloud.size() << " points, " << in_view << " in view; wrote " << output_ << " ("
             << size.width << "x" << size.height << ", focal " << fixed(focal, 1) << " px, camera at "
-            << point_text(camera) << " looking at " << point_text(centre) << ")\n";
+            << point_text(pose.camera) << " looking at " << point_text(pose.centre) << ")\n";
 }
 
 }  // namespace mctstereo::app
