@@ -147,10 +147,10 @@ std::vector<std::size_t> finite_points(const PointCloud& cloud) {
 
 // Where the view camera stands and how it is turned.
 struct ViewPose {
-  cv::Vec3d centre;          // what it looks at: the median of each coordinate, which stray points do not move
-  cv::Vec3d offset;          // from the centre to the original camera (or behind a cloud centred on it)
-  cv::Vec3d camera;          // its position
+  cv::Vec3d centre;  // what it looks at: the median of each coordinate, which stray points do not move
+  cv::Vec3d camera;  // its position
   cv::Matx33d world_to_camera;
+  double near = 0;   // points at or behind this depth in its frame are not drawn
 };
 
 ViewPose view_pose(const PointCloud& cloud, const std::vector<std::size_t>& finite, double yaw_degrees,
@@ -164,17 +164,18 @@ ViewPose view_pose(const PointCloud& cloud, const std::vector<std::size_t>& fini
   }
   // From the centre to the original camera (the origin); a cloud centred on the origin is seen
   // from behind it, from twice its median radius.
-  pose.offset = -pose.centre;
-  if (cv::norm(pose.offset) < 1e-12) {
+  cv::Vec3d offset = -pose.centre;
+  if (cv::norm(offset) < 1e-12) {
     std::vector<double> radius;
     for (std::size_t i : finite) radius.push_back(cv::norm(point_of(cloud, i) - pose.centre));
     const double r = median(radius);
-    pose.offset = {0, 0, -2.0 * (r > 0 ? r : 1.0)};
+    offset = {0, 0, -2.0 * (r > 0 ? r : 1.0)};
   }
   constexpr double kDegree = 3.14159265358979323846 / 180.0;
   const cv::Matx33d turn = rotation_about_y(yaw_degrees * kDegree) * rotation_about_x(pitch_degrees * kDegree);
-  pose.world_to_camera = (turn * looking_along(-pose.offset)).t();
-  pose.camera = pose.centre + distance * (turn * pose.offset);
+  pose.world_to_camera = (turn * looking_along(-offset)).t();
+  pose.camera = pose.centre + distance * (turn * offset);
+  pose.near = 1e-6 * cv::norm(offset) * distance;
   return pose;
 }
 
@@ -185,15 +186,13 @@ struct PointsInView {
   std::vector<std::size_t> source;
 };
 
-PointsInView to_camera(const PointCloud& cloud, const std::vector<std::size_t>& finite, const ViewPose& pose,
-                       double distance) {
-  const double near = 1e-6 * cv::norm(pose.offset) * distance;
+PointsInView to_camera(const PointCloud& cloud, const std::vector<std::size_t>& finite, const ViewPose& pose) {
   PointsInView points;
   points.xyz.reserve(finite.size());
   points.source.reserve(finite.size());
   for (std::size_t i : finite) {
     const cv::Vec3d p = pose.world_to_camera * (point_of(cloud, i) - pose.camera);
-    if (p[2] > near) {
+    if (p[2] > pose.near) {
       points.xyz.push_back(p);
       points.source.push_back(i);
     }
@@ -306,7 +305,7 @@ void RenderCommand::run() const {
   if (finite.empty()) throw RuntimeError("point cloud " + in_quotes(cloud_) + " has no finite points");
 
   const ViewPose pose = view_pose(cloud, finite, yaw_, pitch_, distance_);
-  const PointsInView points = to_camera(cloud, finite, pose, distance_);
+  const PointsInView points = to_camera(cloud, finite, pose);
   const double focal = focal_ > 0.0 ? focal_ : fitting_focal(points.xyz, size);
   cv::Mat picture(size, CV_8UC3, cv::Scalar(background[0], background[1], background[2]));
   const std::size_t in_view = draw_points(cloud, points, focal, point_size_, picture);

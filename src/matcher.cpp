@@ -435,7 +435,6 @@ struct Matcher::Impl {
     int first_post = 0;
     if (finest && params.weighted_median) {
       Stopwatch clock;
-      clock.start();
       stages->weighted_median(L.disparity[0], wm_colour, wm_config, L.scratch[0]);
       stages->median_filter(L.scratch[0], 3, L.disparity[0]);
       first_post = 1;
@@ -649,8 +648,6 @@ struct Matcher::Impl {
     for (double& t : slot_ms) t = 0;
     confidence_current = confidence_q8_current = false;
     Stopwatch frame, clock;
-    frame.start();
-    clock.start();
     take_previous_maps();
 
     for (int v = 0; v < 2; ++v) stages->to_gray(*input[v], full_gray[v][0]);

@@ -8,8 +8,7 @@ namespace mctstereo::detail {
 class Stopwatch {
  public:
   Stopwatch() : t0_(std::chrono::steady_clock::now()) {}
-  void start() { t0_ = std::chrono::steady_clock::now(); }
-  /// Milliseconds since the last lap (or the start), and a new lap from now.
+  /// Milliseconds since the last lap (or since it was made), and a new lap from now.
   double lap_ms() {
     const auto t1 = std::chrono::steady_clock::now();
     const double ms = std::chrono::duration<double, std::milli>(t1 - t0_).count();
